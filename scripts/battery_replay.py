@@ -1,0 +1,5 @@
+#!/usr/bin/env python3
+"""Replays a CSV load profile through the battery model (no ROS needed)."""
+from battery_simulator.replay import main
+
+main()

@@ -1,0 +1,5 @@
+#!/usr/bin/env python3
+"""The battery_simulator action server node (BatterySimServer)."""
+from battery_simulator.action_server import main
+
+main()

@@ -1,0 +1,8 @@
+"""Installs the battery_simulator Python package (see catkin_python_setup)."""
+from catkin_pkg.python_setup import generate_distutils_setup
+from setuptools import setup
+
+setup(**generate_distutils_setup(
+    packages=['battery_simulator'],
+    package_dir={'': 'src'},
+))

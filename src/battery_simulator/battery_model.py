@@ -1,0 +1,314 @@
+"""An equivalent-circuit Li-ion pack model (no rospy).
+
+Each cell is an open-circuit voltage source OCV(SOC) with a series resistance R0
+and one RC pair (R1, tau1), a lumped thermal mass and Coulomb counting. All
+cells are equal, so the pack is one cell scaled: V x Ns, I / Np, Q x Np.
+
+Time is an argument (``step(dt_s)``), so runs are deterministic. Within a step
+the current is held constant and the RC voltage is updated exactly, so results
+do not depend on the step size. Currents are positive when charging, negative
+when discharging (the sensor_msgs/BatteryState convention).
+"""
+import enum
+import math
+from bisect import bisect_right
+from collections import namedtuple
+
+from battery_simulator.parameters import BatteryParameters
+
+_KELVIN = 273.15
+
+
+class Mode(enum.Enum):
+    """What the pack is asked to do."""
+
+    IDLE = 'idle'            # no charger, no load: the level holds
+    CHARGE = 'charge'        # charger connected: CC-CV
+    DISCHARGE = 'discharge'  # load connected
+
+
+class Status(enum.Enum):
+    """What the pack is doing (mapped to BatteryState.power_supply_status)."""
+
+    NOT_CHARGING = 'not charging'
+    CHARGING = 'charging'
+    DISCHARGING = 'discharging'
+    FULL = 'full'    # CV taper ended: the charger is off
+    EMPTY = 'empty'  # cut-off reached: the load is disconnected
+
+
+class Health(enum.Enum):
+    """Mapped to BatteryState.power_supply_health."""
+
+    GOOD = 'good'
+    OVERHEAT = 'overheat'
+    COLD = 'cold'
+
+
+#: A consistent picture of the pack at one instant, in pack units.
+Snapshot = namedtuple('Snapshot', (
+    'percentage', 'voltage_v', 'current_a', 'temperature_c', 'charge_ah',
+    'capacity_ah', 'design_capacity_ah', 'cell_voltage_v', 'mode', 'status',
+    'health', 'cycle_count', 'state_of_health'))
+
+
+class OcvCurve:
+    """Piecewise-linear OCV(SOC) with its inverse and slope."""
+
+    def __init__(self, soc_points, voltages):
+        self.soc_points = tuple(soc_points)
+        self.voltages = tuple(voltages)
+        self._slopes = tuple((v1 - v0) / (s1 - s0) for s0, s1, v0, v1 in zip(
+            self.soc_points, self.soc_points[1:], self.voltages, self.voltages[1:]))
+        self._last = len(self._slopes) - 1
+
+    def _segment(self, soc):
+        return min(max(bisect_right(self.soc_points, soc) - 1, 0), self._last)
+
+    def voltage(self, soc):
+        """OCV at ``soc`` (clamped to the table), V."""
+        k = self._segment(soc)
+        soc = min(max(soc, 0.0), 1.0)
+        return self.voltages[k] + self._slopes[k] * (soc - self.soc_points[k])
+
+    def slope(self, soc):
+        """dOCV/dSOC at ``soc``, V per unit SOC."""
+        return self._slopes[self._segment(soc)]
+
+    def soc(self, voltage):
+        """The SOC whose OCV is ``voltage`` (clamped to 0..1)."""
+        k = min(max(bisect_right(self.voltages, voltage) - 1, 0), self._last)
+        soc = self.soc_points[k] + (voltage - self.voltages[k]) / self._slopes[k]
+        return min(max(soc, 0.0), 1.0)
+
+
+class BatteryModel:
+    """A Li-ion pack: step it with ``step(dt_s)``, read it with ``snapshot()``."""
+
+    def __init__(self, params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
+        params = params if params is not None else BatteryParameters()
+        if not (isinstance(state_of_charge, (int, float)) and 0.0 <= state_of_charge <= 1.0):
+            raise ValueError('state_of_charge = %r is invalid: must be in [0, 1]' % (state_of_charge,))
+        self.params = params
+        self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)
+        self.mode = mode
+        self.state_of_charge = float(state_of_charge)
+        self.rc_voltage_v = 0.0       # voltage across the RC pair, per cell
+        self.cell_current_a = 0.0     # the current held over the last step
+        self.temperature_c = (params.ambient_temperature_c if params.initial_temperature_c is None
+                              else params.initial_temperature_c)
+        self.discharged_ah = 0.0      # per cell, for ageing
+        self.status = Status.NOT_CHARGING
+        self._extra_loads = {}
+        self._extra_current_a = 0.0
+        self._extra_power_w = 0.0
+        self._capacity_as = 0.0       # usable capacity per cell, A*s
+        self._update_capacity()
+        self._settle_status()
+
+    # -- inputs ---------------------------------------------------------------
+
+    def set_mode(self, mode):
+        """Connect the charger (CHARGE), the load (DISCHARGE) or nothing (IDLE)."""
+        if mode is not self.mode:
+            self.mode = mode
+            self._settle_status()
+
+    def set_extra_load(self, name, current_a=0.0, power_w=0.0):
+        """Add (or replace) a named load term, e.g. motion; zero removes it."""
+        if current_a or power_w:
+            self._extra_loads[name] = (float(current_a), float(power_w))
+        else:
+            self._extra_loads.pop(name, None)
+        self._extra_current_a = sum(c for c, _ in self._extra_loads.values())
+        self._extra_power_w = sum(p for _, p in self._extra_loads.values())
+
+    # -- the update -----------------------------------------------------------
+
+    def step(self, dt_s, current_a=None, power_w=None):
+        """Advance by ``dt_s`` seconds.
+
+        Without arguments the mode decides the current. ``current_a`` (A) or
+        ``power_w`` (W) per pack replaces it for this step: positive charges
+        (the charger limits it by CV), negative discharges (until cut-off).
+        """
+        if dt_s <= 0.0:
+            return
+        p = self.params
+        if current_a is None and power_w is None:
+            demand = self._mode_demand_a()
+        elif current_a is not None:
+            demand = current_a
+        else:
+            demand = power_w / self.voltage_v
+        ns, np_ = p.cells_series, p.cells_parallel
+        cell_demand = demand / np_
+        resistance_scale = self._resistance_scale()
+        r0 = p.r0_ohm * resistance_scale
+        r1 = p.r1_ohm * resistance_scale
+        decay = math.exp(-dt_s / p.tau1_s)
+        rc_gain = r1 * (1.0 - decay)
+
+        if cell_demand > 0.0:
+            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, r0)
+        elif cell_demand < 0.0:
+            current = self._discharge_current(cell_demand)
+        else:
+            current = 0.0
+            if self.status not in (Status.FULL, Status.EMPTY):
+                self.status = Status.NOT_CHARGING
+
+        efficiency = p.coulombic_efficiency if current > 0.0 else 1.0
+        soc = self.state_of_charge + efficiency * current * dt_s / self._capacity_as
+        v1_start = self.rc_voltage_v
+        self.rc_voltage_v = decay * v1_start + rc_gain * current
+        self.cell_current_a = current
+        if current < 0.0:
+            self.discharged_ah -= current * dt_s / 3600.0
+            self._update_capacity()
+        self.state_of_charge = min(max(soc, 0.0), 1.0)
+
+        # Lumped thermal mass, exact for the heat held over the step.
+        heat_w = current * current * r0 + current * 0.5 * (v1_start + self.rc_voltage_v)
+        conductance = p.cell_heat_transfer_w_per_k
+        settled_c = p.ambient_temperature_c + heat_w / conductance
+        self.temperature_c = settled_c + (self.temperature_c - settled_c) * math.exp(
+            -dt_s * conductance / p.cell_heat_capacity_j_per_k)
+
+        if self.status is Status.CHARGING and self.state_of_charge >= 1.0:
+            self._become_full()
+        elif self.status is Status.DISCHARGING and (
+                self.state_of_charge <= 0.0 or self.voltage_v <= p.cell_cutoff_voltage_v * ns):
+            self._become_empty()
+
+    def _mode_demand_a(self):
+        p = self.params
+        if self.mode is Mode.CHARGE:
+            return p.charge_current_a
+        if self.mode is Mode.DISCHARGE:
+            power_w = p.load_power_w + self._extra_power_w
+            load_a = p.load_current_a + self._extra_current_a
+            if power_w:
+                load_a += power_w / self.voltage_v
+            return -load_a
+        return 0.0
+
+    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, r0):
+        """CC up to the charge voltage, then CV with the current tapering."""
+        if self.status is Status.FULL:
+            return 0.0
+        p = self.params
+        soc = self.state_of_charge
+        soc_gain = p.coulombic_efficiency * dt_s / self._capacity_as
+        # The current that ends the step exactly at the charge voltage
+        # (implicit in SOC, so large steps stay stable).
+        headroom = p.cell_charge_voltage_v - self.ocv.voltage(soc) - decay * self.rc_voltage_v
+        cv_current = headroom / (r0 + rc_gain + self.ocv.slope(soc) * soc_gain)
+        current = min(cell_demand, cv_current)
+        if current < cell_demand and current * p.cells_parallel <= p.pack_termination_current_a:
+            self._become_full()
+            return 0.0
+        self.status = Status.CHARGING
+        return current
+
+    def _discharge_current(self, cell_demand):
+        if self.status is Status.EMPTY:
+            return 0.0
+        self.status = Status.DISCHARGING
+        return cell_demand
+
+    def _become_full(self):
+        # A fuel gauge calls the end of the CV taper 100 %.
+        self.status = Status.FULL
+        self.state_of_charge = 1.0
+        self.cell_current_a = 0.0
+
+    def _become_empty(self):
+        self.status = Status.EMPTY
+        self.cell_current_a = 0.0
+
+    def _settle_status(self):
+        """The status right after a mode change (FULL/EMPTY persist only in their mode)."""
+        if self.mode is Mode.CHARGE:
+            full = self.state_of_charge >= 1.0
+            self.status = Status.FULL if full else Status.CHARGING
+        elif self.mode is Mode.DISCHARGE:
+            empty = (self.state_of_charge <= 0.0
+                     or self.voltage_v <= self.params.cell_cutoff_voltage_v * self.params.cells_series)
+            self.status = Status.EMPTY if empty else Status.DISCHARGING
+        else:
+            self.status = Status.NOT_CHARGING
+        self.cell_current_a = 0.0
+
+    def _resistance_scale(self):
+        p = self.params
+        if not p.arrhenius_temperature_k:
+            return 1.0
+        return math.exp(p.arrhenius_temperature_k * (
+            1.0 / (self.temperature_c + _KELVIN) - 1.0 / (p.reference_temperature_c + _KELVIN)))
+
+    def _update_capacity(self):
+        self._capacity_as = self.params.cell_capacity_ah * 3600.0 * self.state_of_health
+
+    # -- outputs --------------------------------------------------------------
+
+    @property
+    def cycle_count(self):
+        """Equivalent full cycles done, including the initial count."""
+        return self.params.initial_cycle_count + self.discharged_ah / self.params.cell_capacity_ah
+
+    @property
+    def state_of_health(self):
+        """Usable capacity over design capacity, 0..1."""
+        return max(0.0, 1.0 - self.params.capacity_fade_per_cycle * self.cycle_count)
+
+    @property
+    def cell_voltage_v(self):
+        """Terminal voltage of one cell under the present current, V."""
+        current = self.cell_current_a
+        return (self.ocv.voltage(self.state_of_charge) + self.rc_voltage_v
+                + current * self.params.r0_ohm * self._resistance_scale())
+
+    @property
+    def voltage_v(self):
+        """Pack terminal voltage, V."""
+        return self.cell_voltage_v * self.params.cells_series
+
+    @property
+    def current_a(self):
+        """Pack current, A: positive charging, negative discharging."""
+        return self.cell_current_a * self.params.cells_parallel
+
+    @property
+    def capacity_ah(self):
+        """Pack capacity now (design capacity x state of health), Ah."""
+        return self._capacity_as / 3600.0 * self.params.cells_parallel
+
+    @property
+    def health(self):
+        """GOOD, or OVERHEAT / COLD past the configured temperature limits."""
+        if self.temperature_c > self.params.overheat_temperature_c:
+            return Health.OVERHEAT
+        if self.temperature_c < self.params.cold_temperature_c:
+            return Health.COLD
+        return Health.GOOD
+
+    def snapshot(self):
+        """All outputs at this instant, in pack units."""
+        cell_v = self.cell_voltage_v
+        capacity = self.capacity_ah
+        return Snapshot(
+            percentage=100.0 * self.state_of_charge,
+            voltage_v=cell_v * self.params.cells_series,
+            current_a=self.current_a,
+            temperature_c=self.temperature_c,
+            charge_ah=self.state_of_charge * capacity,
+            capacity_ah=capacity,
+            design_capacity_ah=self.params.design_capacity_ah,
+            cell_voltage_v=cell_v,
+            mode=self.mode,
+            status=self.status,
+            health=self.health,
+            cycle_count=self.cycle_count,
+            state_of_health=self.state_of_health,
+        )

@@ -1,0 +1,263 @@
+"""Battery parameters: units, defaults, validation and YAML presets (no rospy).
+
+A pack is ``cells_series`` x ``cells_parallel`` identical cells. Cell values are
+per cell; load and charger values are per pack, as a robot sees them.
+"""
+import math
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+
+import yaml
+
+
+class ParameterError(ValueError):
+    """A parameter value is out of its allowed range; the message names both."""
+
+
+def _positive(value):
+    return _is_number(value) and value > 0
+
+
+def _non_negative(value):
+    return _is_number(value) and value >= 0
+
+
+def _is_number(value):
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _is_count(value):
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
+
+
+@dataclass(frozen=True)
+class BatteryParameters:
+    """Every parameter of the battery model, with its unit in its name."""
+
+    name: str = 'custom'
+    #: cells in series (multiplies voltage and resistance)
+    cells_series: int = 1
+    #: strings in parallel (multiplies capacity and current, divides resistance)
+    cells_parallel: int = 1
+    #: cell capacity when new, Ah (charged CC-CV, discharged to cut-off)
+    cell_capacity_ah: float = 2.78
+    #: open-circuit voltage table: state of charge 0..1, strictly increasing
+    ocv_soc: tuple = (0.0, 1.0)
+    #: open-circuit voltage at each ``ocv_soc`` point, V per cell, increasing
+    ocv_voltage_v: tuple = (2.8, 4.2)
+    #: series (ohmic) resistance per cell at the reference temperature, ohm
+    r0_ohm: float = 0.02
+    #: RC-pair (polarisation) resistance per cell at the reference temperature, ohm
+    r1_ohm: float = 0.015
+    #: RC-pair time constant, s
+    tau1_s: float = 60.0
+    #: fraction of the charge put in that is stored, 0 < eta <= 1
+    coulombic_efficiency: float = 0.999
+    #: constant-voltage limit per cell, V (must lie within the OCV table)
+    cell_charge_voltage_v: float = 4.2
+    #: discharge cut-off per cell, V (the load is disconnected there)
+    cell_cutoff_voltage_v: float = 2.8
+    #: charger constant current per pack, A
+    charge_current_a: float = 1.5
+    #: CV taper end per pack, A; None means C/20 of the pack's design capacity
+    termination_current_a: float = None
+    #: base discharge current per pack, A
+    load_current_a: float = 1.5
+    #: constant-power discharge load per pack, W (adds I = P / V)
+    load_power_w: float = 0.0
+    #: ambient temperature, degC
+    ambient_temperature_c: float = 25.0
+    #: temperature at start; None means ambient, degC
+    initial_temperature_c: float = None
+    #: heat capacity per cell, J/K
+    cell_heat_capacity_j_per_k: float = 45.0
+    #: heat transfer from a cell to ambient, W/K
+    cell_heat_transfer_w_per_k: float = 0.06
+    #: Arrhenius activation temperature Ea/R of the resistances, K (0 = none)
+    arrhenius_temperature_k: float = 2800.0
+    #: temperature at which r0_ohm and r1_ohm hold, degC
+    reference_temperature_c: float = 25.0
+    #: health OVERHEAT above this cell temperature, degC
+    overheat_temperature_c: float = 60.0
+    #: health COLD below this cell temperature, degC
+    cold_temperature_c: float = 0.0
+    #: capacity lost per equivalent full cycle, fraction of design capacity
+    capacity_fade_per_cycle: float = 0.0002
+    #: equivalent full cycles the pack has done at start
+    initial_cycle_count: float = 0.0
+    #: BatteryState.location
+    location: str = 'base'
+    #: BatteryState.serial_number
+    serial_number: str = ''
+    #: where the numbers come from
+    source: str = ''
+
+    def __post_init__(self):
+        validate(self)
+
+    @property
+    def design_capacity_ah(self):
+        """Pack capacity when new, Ah."""
+        return self.cell_capacity_ah * self.cells_parallel
+
+    @property
+    def pack_termination_current_a(self):
+        """The CV taper end per pack, A (C/20 unless set)."""
+        if self.termination_current_a is None:
+            return self.design_capacity_ah / 20.0
+        return self.termination_current_a
+
+
+# (parameter, check, what is allowed); checked in this order.
+_RULES = (
+    ('name', lambda v: isinstance(v, str) and v != '', 'a non-empty string'),
+    ('cells_series', _is_count, 'a whole number >= 1'),
+    ('cells_parallel', _is_count, 'a whole number >= 1'),
+    ('cell_capacity_ah', _positive, 'a number > 0'),
+    ('r0_ohm', _positive, 'a number > 0'),
+    ('r1_ohm', _non_negative, 'a number >= 0'),
+    ('tau1_s', _positive, 'a number > 0'),
+    ('coulombic_efficiency', lambda v: _is_number(v) and 0 < v <= 1, 'a number in (0, 1]'),
+    ('cell_charge_voltage_v', _positive, 'a number > 0'),
+    ('cell_cutoff_voltage_v', _positive, 'a number > 0'),
+    ('charge_current_a', _positive, 'a number > 0'),
+    ('termination_current_a', lambda v: v is None or _positive(v), 'null or a number > 0'),
+    ('load_current_a', _non_negative, 'a number >= 0'),
+    ('load_power_w', _non_negative, 'a number >= 0'),
+    ('ambient_temperature_c', lambda v: _is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
+    ('initial_temperature_c', lambda v: v is None or (_is_number(v) and -60 <= v <= 100),
+     'null or a number in [-60, 100]'),
+    ('cell_heat_capacity_j_per_k', _positive, 'a number > 0'),
+    ('cell_heat_transfer_w_per_k', _positive, 'a number > 0'),
+    ('arrhenius_temperature_k', _non_negative, 'a number >= 0'),
+    ('reference_temperature_c', lambda v: _is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
+    ('overheat_temperature_c', _is_number, 'a number'),
+    ('cold_temperature_c', _is_number, 'a number'),
+    ('capacity_fade_per_cycle', lambda v: _is_number(v) and 0 <= v < 0.01, 'a number in [0, 0.01)'),
+    ('initial_cycle_count', _non_negative, 'a number >= 0'),
+    ('location', lambda v: isinstance(v, str), 'a string'),
+    ('serial_number', lambda v: isinstance(v, str), 'a string'),
+    ('source', lambda v: isinstance(v, str), 'a string'),
+)
+
+
+def _fail(name, value, allowed):
+    raise ParameterError('parameter %s = %r is invalid: must be %s' % (name, value, allowed))
+
+
+def validate(params):
+    """Raise ParameterError naming the first invalid parameter of ``params``."""
+    for name, check, allowed in _RULES:
+        if not check(getattr(params, name)):
+            _fail(name, getattr(params, name), allowed)
+    _validate_ocv_table(params)
+    if params.cell_cutoff_voltage_v >= params.cell_charge_voltage_v:
+        _fail('cell_cutoff_voltage_v', params.cell_cutoff_voltage_v,
+              'below cell_charge_voltage_v (%g V)' % params.cell_charge_voltage_v)
+    if params.cold_temperature_c >= params.overheat_temperature_c:
+        _fail('cold_temperature_c', params.cold_temperature_c,
+              'below overheat_temperature_c (%g degC)' % params.overheat_temperature_c)
+    if params.pack_termination_current_a >= params.charge_current_a:
+        _fail('termination_current_a', params.termination_current_a,
+              'below charge_current_a (%g A)' % params.charge_current_a)
+
+
+def _validate_ocv_table(params):
+    soc, volts = params.ocv_soc, params.ocv_voltage_v
+    for name, table in (('ocv_soc', soc), ('ocv_voltage_v', volts)):
+        if not isinstance(table, (tuple, list)) or len(table) < 2 \
+                or not all(_is_number(x) for x in table):
+            _fail(name, table, 'a list of at least 2 numbers')
+    if len(soc) != len(volts):
+        _fail('ocv_voltage_v', volts, 'as many entries as ocv_soc (%d)' % len(soc))
+    if soc[0] != 0 or soc[-1] != 1 or any(b <= a for a, b in zip(soc, soc[1:])):
+        _fail('ocv_soc', soc, 'strictly increasing from 0 to 1')
+    if volts[0] <= 0 or any(b <= a for a, b in zip(volts, volts[1:])):
+        _fail('ocv_voltage_v', volts, 'positive and strictly increasing')
+    # The CV taper only ends if the OCV can reach the charge voltage.
+    if not volts[0] < params.cell_charge_voltage_v <= volts[-1]:
+        _fail('cell_charge_voltage_v', params.cell_charge_voltage_v,
+              'within the OCV table (%g..%g V)' % (volts[0], volts[-1]))
+    if not volts[0] <= params.cell_cutoff_voltage_v:
+        _fail('cell_cutoff_voltage_v', params.cell_cutoff_voltage_v,
+              'at or above the OCV table start (%g V)' % volts[0])
+
+
+PARAMETER_NAMES = tuple(f.name for f in fields(BatteryParameters))
+_TABLES = ('ocv_soc', 'ocv_voltage_v')
+_WHOLE_NUMBERS = ('cells_series', 'cells_parallel')
+
+
+def from_mapping(values, base=None, origin='parameters'):
+    """Build parameters from a mapping (YAML, ROS params) over ``base``.
+
+    Unknown keys and bad values raise ParameterError naming ``origin`` and the key.
+    """
+    if not isinstance(values, dict):
+        raise ParameterError('%s: expected a mapping of parameter names, got %r' % (origin, values))
+    unknown = sorted(set(values) - set(PARAMETER_NAMES) - {'preset'})
+    if unknown:
+        raise ParameterError('%s: unknown parameter %s (known: %s)'
+                             % (origin, unknown[0], ', '.join(PARAMETER_NAMES)))
+    if base is None:
+        base = preset(values['preset']) if 'preset' in values else BatteryParameters()
+    changes = {}
+    for key, value in values.items():
+        if key == 'preset':
+            continue
+        if key in _TABLES and isinstance(value, list):
+            value = tuple(value)
+        if key not in _WHOLE_NUMBERS and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        changes[key] = value
+    try:
+        return replace(base, **changes)
+    except ParameterError as error:
+        raise ParameterError('%s: %s' % (origin, error)) from None
+
+
+def load_yaml(path):
+    """Load parameters from a YAML file: an optional ``preset`` plus overrides."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding='utf-8')
+    except OSError as error:
+        raise ParameterError('cannot read battery config %s: %s' % (path, error.strerror)) from None
+    try:
+        values = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        raise ParameterError('%s is not valid YAML: %s' % (path, error)) from None
+    return from_mapping(values if values is not None else {}, origin=str(path))
+
+
+def preset_directory():
+    """The folder of preset YAML files, in the source/devel tree or the install space."""
+    here = Path(__file__).resolve()
+    candidates = [here.parents[2] / 'config' / 'presets']
+    if len(here.parents) > 4:  # <prefix>/lib/python3/dist-packages/battery_simulator/
+        candidates.append(here.parents[4] / 'share' / 'battery_simulator' / 'config' / 'presets')
+    for candidate in candidates:
+        if candidate.is_dir():
+            return candidate
+    raise ParameterError('battery presets not found in %s' % ', '.join(map(str, candidates)))
+
+
+def preset_names():
+    """Names of the shipped presets."""
+    return sorted(p.stem for p in preset_directory().glob('*.yaml'))
+
+
+def preset(name):
+    """The shipped preset called ``name``."""
+    if not isinstance(name, str) or name not in preset_names():
+        raise ParameterError('preset %r is unknown (known: %s)' % (name, ', '.join(preset_names())))
+    path = preset_directory() / (name + '.yaml')
+    values = yaml.safe_load(path.read_text(encoding='utf-8'))
+    if 'preset' in values:  # a pack built on a cell preset
+        base = preset(values.pop('preset'))
+        return from_mapping(values, base=base, origin=str(path))
+    return from_mapping(values, base=BatteryParameters(), origin=str(path))
+
+
+DEFAULT_PRESET = 'lg_hg2_3s1p'
