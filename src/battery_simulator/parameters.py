@@ -243,6 +243,11 @@ def preset_directory():
     raise ParameterError('battery presets not found in %s' % ', '.join(map(str, candidates)))
 
 
+def default_config_path():
+    """The package's own config/battery.yaml."""
+    return preset_directory().parent / 'battery.yaml'
+
+
 def preset_names():
     """Names of the shipped presets."""
     return sorted(p.stem for p in preset_directory().glob('*.yaml'))

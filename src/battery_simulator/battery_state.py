@@ -1,0 +1,41 @@
+"""Model snapshot -> sensor_msgs/BatteryState (no rospy: the message class only)."""
+from sensor_msgs.msg import BatteryState
+
+from battery_simulator.battery_model import Health, Status
+
+_SUPPLY_STATUS = {
+    Status.CHARGING: BatteryState.POWER_SUPPLY_STATUS_CHARGING,
+    Status.DISCHARGING: BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
+    Status.FULL: BatteryState.POWER_SUPPLY_STATUS_FULL,
+    Status.EMPTY: BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING,  # the load is disconnected
+    Status.NOT_CHARGING: BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING,
+}
+_SUPPLY_HEALTH = {
+    Health.GOOD: BatteryState.POWER_SUPPLY_HEALTH_GOOD,
+    Health.OVERHEAT: BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT,
+    Health.COLD: BatteryState.POWER_SUPPLY_HEALTH_COLD,
+}
+
+
+def to_battery_state(snapshot, params, stamp=None, frame_id=''):
+    """A BatteryState filled from a model snapshot, in pack units (V, A, Ah, degC)."""
+    msg = BatteryState()
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.voltage = snapshot.voltage_v
+    msg.temperature = snapshot.temperature_c
+    msg.current = snapshot.current_a
+    msg.charge = snapshot.charge_ah
+    msg.capacity = snapshot.capacity_ah
+    msg.design_capacity = snapshot.design_capacity_ah
+    msg.percentage = snapshot.percentage / 100.0
+    msg.power_supply_status = _SUPPLY_STATUS[snapshot.status]
+    msg.power_supply_health = _SUPPLY_HEALTH[snapshot.health]
+    msg.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_LION
+    msg.present = True
+    msg.cell_voltage = [snapshot.cell_voltage_v] * params.cells_series
+    msg.cell_temperature = [snapshot.temperature_c] * params.cells_series
+    msg.location = params.location
+    msg.serial_number = params.serial_number
+    return msg

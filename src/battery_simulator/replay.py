@@ -1,0 +1,140 @@
+"""Replay a CSV load profile through the battery model (no ROS needed).
+
+    battery_replay.py profile.csv [--preset NAME | --config FILE] [--soc 0.8] [-o out.csv]
+    python3 -m battery_simulator.replay profile.csv ...
+
+The profile has a header with ``time`` (s, increasing) and ``current`` (A,
+negative = discharge, as in sensor_msgs/BatteryState) or ``power`` (W, same
+sign). Each row's value is held until the next row's time. The output has one
+row per profile row: the state at that time (time, voltage, current, soc 0..1,
+temperature, status).
+"""
+import argparse
+import csv
+import math
+import sys
+
+from battery_simulator.battery_model import BatteryModel, Mode
+from battery_simulator.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
+
+OUTPUT_COLUMNS = ('time', 'voltage', 'current', 'soc', 'temperature', 'status')
+
+
+class ProfileError(ValueError):
+    """A profile file cannot be used; the message names the file and line."""
+
+
+def read_profile(path):
+    """[(time_s, kind, value)] from a profile CSV, kind 'current' or 'power'."""
+    try:
+        stream = open(path, newline='', encoding='utf-8')
+    except OSError as error:
+        raise ProfileError('%s: cannot read: %s' % (path, error.strerror)) from None
+    with stream:
+        reader = csv.reader(stream)
+        header = [name.strip().lower() for name in next(reader, [])]
+        if 'time' not in header or not ({'current', 'power'} & set(header)):
+            raise ProfileError('%s line 1: the header must name a "time" column and a "current" '
+                               'or "power" column, got %s' % (path, ','.join(header) or 'nothing'))
+        kind = 'current' if 'current' in header else 'power'
+        time_column, value_column = header.index('time'), header.index(kind)
+        rows = []
+        for line, row in enumerate(reader, start=2):
+            if not row or all(not cell.strip() for cell in row):
+                continue
+            try:
+                time_s, value = float(row[time_column]), float(row[value_column])
+            except (ValueError, IndexError):
+                raise ProfileError('%s line %d: expected numbers in "time" and "%s", got %s'
+                                   % (path, line, kind, ','.join(row))) from None
+            if not (math.isfinite(time_s) and math.isfinite(value)):
+                raise ProfileError('%s line %d: values must be finite, got %s' % (path, line, ','.join(row)))
+            if rows and time_s <= rows[-1][0]:
+                raise ProfileError('%s line %d: time %g s is not after the previous row\'s %g s'
+                                   % (path, line, time_s, rows[-1][0]))
+            rows.append((time_s, kind, value))
+    if not rows:
+        raise ProfileError('%s: no data rows after the header' % path)
+    return rows
+
+
+def replay(params, profile, state_of_charge=1.0, max_step_s=1.0):
+    """Yield an output row (see OUTPUT_COLUMNS) at each profile time."""
+    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    yield _row(profile[0][0], model)
+    for (start_s, kind, value), (end_s, _, _) in zip(profile, profile[1:]):
+        steps = max(1, int(math.ceil((end_s - start_s) / max_step_s)))
+        dt_s = (end_s - start_s) / steps
+        for _ in range(steps):
+            if kind == 'current':
+                model.step(dt_s, current_a=value)
+            else:
+                model.step(dt_s, power_w=value)
+        yield _row(end_s, model)
+
+
+def _row(time_s, model):
+    return ('%g' % time_s, '%.4f' % model.voltage_v, '%.4f' % model.current_a,
+            '%.5f' % model.state_of_charge, '%.2f' % model.temperature_c, model.status.name)
+
+
+def _fraction(text):
+    value = float(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError('%s is not in [0, 1] (a fraction: 0.5 = half full)' % text)
+    return value
+
+
+def _positive(text):
+    value = float(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError('%s is not > 0' % text)
+    return value
+
+
+def parse_arguments(argv):
+    parser = argparse.ArgumentParser(
+        prog='battery_replay.py', description='Replay a CSV load profile through the battery model.')
+    parser.add_argument('profile', nargs='?', help='CSV with time (s) and current (A) or power (W)')
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument('--preset', help='battery preset (default %s)' % DEFAULT_PRESET)
+    source.add_argument('--config', help='YAML file of battery parameters')
+    parser.add_argument('--soc', type=_fraction, default=1.0, help='initial state of charge, 0..1 (default 1)')
+    parser.add_argument('--max-step', type=_positive, default=1.0, help='longest model step, s (default 1)')
+    parser.add_argument('-o', '--output', help='output CSV file (default: stdout)')
+    parser.add_argument('--list-presets', action='store_true', help='list the presets and exit')
+    args = parser.parse_args(argv)
+    if not args.list_presets and args.profile is None:
+        parser.error('the profile CSV is required')
+    return args
+
+
+def main(argv=None):
+    args = parse_arguments(argv)
+    if args.list_presets:
+        print('\n'.join(preset_names()))
+        return
+    try:
+        params = load_yaml(args.config) if args.config else preset(args.preset or DEFAULT_PRESET)
+        profile = read_profile(args.profile)
+    except (ParameterError, ProfileError) as error:
+        sys.exit('battery_replay: %s' % error)
+    rows = replay(params, profile, state_of_charge=args.soc, max_step_s=args.max_step)
+    if args.output:
+        try:
+            with open(args.output, 'w', newline='', encoding='utf-8') as stream:
+                _write(stream, rows)
+        except OSError as error:
+            sys.exit('battery_replay: cannot write %s: %s' % (args.output, error.strerror))
+    else:
+        _write(sys.stdout, rows)
+
+
+def _write(stream, rows):
+    writer = csv.writer(stream, lineterminator='\n')
+    writer.writerow(OUTPUT_COLUMNS)
+    writer.writerows(rows)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,29 @@
+"""Start-up parameter checks shared by the nodes: one fatal line, non-zero exit."""
+import math
+import sys
+
+import rospy
+
+
+class StartupError(ValueError):
+    """A bad parameter at start-up; the message names it, its value and what is allowed."""
+
+
+def is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def checked_param(name, default, check, allowed):
+    """rospy.get_param(name, default), raising StartupError unless ``check`` accepts it."""
+    value = rospy.get_param(name, default)
+    if not check(value):
+        raise StartupError('parameter %s = %r is invalid: must be %s'
+                           % (rospy.resolve_name(name), value, allowed))
+    return value
+
+
+def exit_on_startup_error(error):
+    """Log one fatal line and exit 1 (roslaunch shows the node as died)."""
+    rospy.logfatal('%s', error)
+    sys.stderr.flush()
+    sys.exit(1)

@@ -1,0 +1,9 @@
+#!/bin/bash
+# Set up, build and run the simulator: roslaunch battery_simulator sim.launch [arg:=value ...]
+# Ctrl-C stops it.
+set -eo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+"$root/tools/build.sh"
+export PATH="/usr/bin:$PATH"
+source "$root/build/devel/setup.bash"
+exec roslaunch battery_simulator sim.launch "$@"

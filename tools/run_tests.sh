@@ -1,0 +1,15 @@
+#!/bin/bash
+# Set up, build and run every test: the masterless unit tests (pytest), the
+# rostests and the catkin workspace test, then print one summary line.
+# Exits non-zero if anything failed or if no test ran.
+set -eo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+export PATH="/usr/bin:$PATH"
+"$root/tools/build.sh"
+cmake -S "$root" -B "$root/build" -DBATTERY_SIMULATOR_WORKSPACE_TEST=ON >/dev/null
+source "$root/build/devel/setup.bash"
+rm -rf "$root/build/test_results/battery_simulator"
+status=0
+(cd "$root/build" && ctest --output-on-failure --timeout 900) || status=$?
+/usr/bin/python3 "$root/tools/summarize_test_results.py" "$root/build/test_results/battery_simulator" || status=1
+exit $status
