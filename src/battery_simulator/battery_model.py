@@ -218,7 +218,9 @@ class BatteryModel:
         return cell_demand
 
     def _become_full(self):
-        # A fuel gauge calls the end of the CV taper 100 %.
+        # A fuel gauge calls the end of the CV taper 100 %. The terminal
+        # voltage stays continuous: the RC pair takes up the OCV step.
+        self.rc_voltage_v += self.ocv.voltage(self.state_of_charge) - self.ocv.voltage(1.0)
         self.status = Status.FULL
         self.state_of_charge = 1.0
         self.cell_current_a = 0.0

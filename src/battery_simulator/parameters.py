@@ -201,7 +201,10 @@ def from_mapping(values, base=None, origin='parameters'):
         raise ParameterError('%s: unknown parameter %s (known: %s)'
                              % (origin, unknown[0], ', '.join(PARAMETER_NAMES)))
     if base is None:
-        base = preset(values['preset']) if 'preset' in values else BatteryParameters()
+        try:
+            base = preset(values['preset']) if 'preset' in values else BatteryParameters()
+        except ParameterError as error:
+            raise ParameterError('%s: %s' % (origin, error)) from None
     changes = {}
     for key, value in values.items():
         if key == 'preset':
@@ -256,7 +259,7 @@ def preset_names():
 def preset(name):
     """The shipped preset called ``name``."""
     if not isinstance(name, str) or name not in preset_names():
-        raise ParameterError('preset %r is unknown (known: %s)' % (name, ', '.join(preset_names())))
+        raise ParameterError('parameter preset = %r is invalid: must be one of %s' % (name, ', '.join(preset_names())))
     path = preset_directory() / (name + '.yaml')
     values = yaml.safe_load(path.read_text(encoding='utf-8'))
     if 'preset' in values:  # a pack built on a cell preset

@@ -1,0 +1,87 @@
+"""Parameter validation, YAML loading and presets."""
+from dataclasses import replace
+
+import pytest
+
+from battery_simulator.parameters import (PARAMETER_NAMES, BatteryParameters, ParameterError,
+                                          default_config_path, load_yaml, preset, preset_names)
+
+BAD_VALUES = [
+    ('cells_series', 0), ('cells_series', 2.5), ('cells_parallel', True), ('cell_capacity_ah', -1.0),
+    ('r0_ohm', 0.0), ('r1_ohm', -0.01), ('tau1_s', float('nan')), ('coulombic_efficiency', 1.2),
+    ('charge_current_a', 0.0), ('termination_current_a', 5.0), ('load_current_a', -1.0),
+    ('load_power_w', 'lots'), ('ambient_temperature_c', 500.0), ('cell_heat_capacity_j_per_k', 0.0),
+    ('capacity_fade_per_cycle', 0.5), ('cell_cutoff_voltage_v', 4.3), ('cell_charge_voltage_v', 4.5),
+    ('ocv_soc', (0.0, 0.7, 0.5, 1.0)), ('ocv_voltage_v', (3.0, 3.9, 3.8, 4.2)),
+    ('cold_temperature_c', 80.0), ('name', ''),
+]
+
+
+@pytest.mark.parametrize('name, value', BAD_VALUES)
+def test_invalid_value_names_parameter_value_and_rule(name, value):
+    base = preset('lg_hg2_cell')
+    if name in ('ocv_soc', 'ocv_voltage_v'):
+        base = replace(base, ocv_soc=(0.0, 0.3, 0.6, 1.0), ocv_voltage_v=(2.8, 3.6, 3.9, 4.2))
+    with pytest.raises(ParameterError) as error:
+        replace(base, **{name: value})
+    message = str(error.value)
+    assert name in message and repr(value) in message and 'must be' in message, message
+
+
+def test_every_parameter_has_a_unit_or_is_a_count_or_text():
+    units = ('_ah', '_v', '_ohm', '_s', '_a', '_w', '_c', '_k', '_j_per_k', '_w_per_k')
+    unitless = {'name', 'cells_series', 'cells_parallel', 'ocv_soc', 'coulombic_efficiency',
+                'capacity_fade_per_cycle', 'initial_cycle_count', 'location', 'serial_number', 'source'}
+    for name in PARAMETER_NAMES:
+        assert name in unitless or name.endswith(units), name
+
+
+def test_defaults_are_valid():
+    assert BatteryParameters().design_capacity_ah > 0
+
+
+def test_presets_load_and_carry_their_source():
+    names = preset_names()
+    assert {'lg_hg2_cell', 'lg_hg2_3s1p', 'kobuki_4s2p', 'lg_hg2_7s4p'} <= set(names)
+    for name in names:
+        params = preset(name)
+        assert params.name == name and params.source, name
+    pack = preset('lg_hg2_3s1p')
+    assert (pack.cells_series, pack.cells_parallel) == (3, 1)
+    assert pack.ocv_voltage_v == preset('lg_hg2_cell').ocv_voltage_v
+
+
+def test_unknown_preset_lists_the_known_ones():
+    with pytest.raises(ParameterError, match='lg_hg2_3s1p'):
+        preset('turbo')
+
+
+def test_yaml_preset_with_overrides(tmp_path):
+    path = tmp_path / 'robot.yaml'
+    path.write_text('preset: kobuki_4s2p\nload_current_a: 2\nlocation: rear\n')
+    params = load_yaml(path)
+    assert params.cells_series == 4 and params.load_current_a == 2.0 and params.location == 'rear'
+
+
+def test_default_config_is_the_default_pack():
+    assert load_yaml(default_config_path()).name == 'lg_hg2_3s1p'
+
+
+@pytest.mark.parametrize('text, expected', [
+    ('load_current_a: -3\n', 'load_current_a'),
+    ('no_such_thing: 1\n', 'no_such_thing'),
+    ('preset: [1, 2]\n', 'preset'),
+    ('- just\n- a list\n', 'mapping'),
+    ('load_current_a: [unclosed\n', 'not valid YAML'),
+])
+def test_bad_yaml_names_the_file_and_key(tmp_path, text, expected):
+    path = tmp_path / 'bad.yaml'
+    path.write_text(text)
+    with pytest.raises(ParameterError) as error:
+        load_yaml(path)
+    assert expected in str(error.value) and str(path) in str(error.value), str(error.value)
+
+
+def test_missing_yaml_file_is_a_clear_error(tmp_path):
+    with pytest.raises(ParameterError, match='cannot read'):
+        load_yaml(tmp_path / 'absent.yaml')

@@ -1,0 +1,82 @@
+"""The battery_replay CLI (python3 -m battery_simulator.replay)."""
+import csv
+import io
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from battery_simulator.parameters import preset
+from battery_simulator.replay import OUTPUT_COLUMNS, ProfileError, read_profile, replay
+
+SOURCE = Path(__file__).resolve().parents[2] / 'src'
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, '-m', 'battery_simulator.replay', *map(str, args)],
+                          capture_output=True, text=True, timeout=60,
+                          env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
+
+
+def test_current_profile_to_stdout(tmp_path):
+    profile = tmp_path / 'mission.csv'
+    profile.write_text('time,current\n0,-3\n1800,-3\n3600,0\n')
+    result = run_cli(profile, '--preset', 'lg_hg2_cell')
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    assert tuple(rows[0]) == OUTPUT_COLUMNS and len(rows) == 3
+    assert float(rows[0]['soc']) == 1.0
+    # 3 A for 1 h from a 2.78 Ah cell: empty (cut-off) before the hour is out
+    assert rows[2]['status'] == 'EMPTY' and float(rows[2]['current']) == 0.0
+    assert float(rows[1]['soc']) == pytest.approx(1 - 1.5 / 2.781, abs=0.002)
+    assert float(rows[1]['current']) == -3.0
+
+
+def test_power_profile_config_file_soc_and_output_file(tmp_path):
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,power\n0,-20\n600,5\n1200,0\n')
+    config = tmp_path / 'b.yaml'
+    config.write_text('preset: lg_hg2_3s1p\nambient_temperature_c: 10\n')
+    out = tmp_path / 'out.csv'
+    result = run_cli(profile, '--config', config, '--soc', '0.5', '-o', out)
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(out.open()))
+    assert float(rows[0]['soc']) == 0.5 and float(rows[0]['temperature']) == 10.0
+    assert float(rows[1]['current']) * float(rows[1]['voltage']) == pytest.approx(-20.0, rel=0.02)
+    assert rows[2]['status'] == 'CHARGING'
+
+
+@pytest.mark.parametrize('text, line', [
+    ('time,current\n0,-1\n10,abc\n', 'line 3'),
+    ('time,current\n0,-1\n0,-2\n', 'line 3'),
+    ('stamp,amps\n0,1\n', 'line 1'),
+    ('time,current\n0,-1\n5,inf\n', 'line 3'),
+])
+def test_bad_profile_names_the_line(tmp_path, text, line):
+    profile = tmp_path / 'bad.csv'
+    profile.write_text(text)
+    result = run_cli(profile)
+    assert result.returncode != 0 and line in result.stderr and str(profile) in result.stderr, result.stderr
+    assert 'Traceback' not in result.stderr
+
+
+def test_missing_file_and_bad_soc_are_clear_errors(tmp_path):
+    result = run_cli(tmp_path / 'absent.csv')
+    assert result.returncode != 0 and 'cannot read' in result.stderr
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,current\n0,-1\n1,-1\n')
+    result = run_cli(profile, '--soc', '80')
+    assert result.returncode == 2 and '[0, 1]' in result.stderr
+
+
+def test_empty_profile_is_rejected(tmp_path):
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,current\n')
+    with pytest.raises(ProfileError, match='no data rows'):
+        read_profile(profile)
+
+
+def test_replay_function_yields_a_row_per_time():
+    rows = list(replay(preset('lg_hg2_cell'), [(0.0, 'current', -1.0), (60.0, 'current', 0.0)]))
+    assert [r[0] for r in rows] == ['0', '60']
