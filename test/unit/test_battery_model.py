@@ -86,9 +86,11 @@ def test_cc_cv_charge_tapers_and_ends_full_at_c20():
     assert model.status is Status.FULL and model.state_of_charge == 1.0
     assert currents[0] == pytest.approx(CELL.charge_current_a), 'starts at constant current'
     assert max(voltages) <= CELL.cell_charge_voltage_v + 0.001, 'never above the CV voltage (1 mV)'
-    tapering = [c for c in currents if c < CELL.charge_current_a - 1e-9]
+    assert currents[-1] == 0.0, 'the charger turned off'
+    tapering = [c for c in currents[:-1] if c < CELL.charge_current_a - 1e-9]
     assert tapering and tapering == sorted(tapering, reverse=True), 'CV current falls monotonically'
-    assert tapering[-1] > CELL.pack_termination_current_a * 0.5
+    termination = CELL.pack_termination_current_a
+    assert termination < tapering[-1] < 1.5 * termination, 'ends at the termination current'
     assert CELL.pack_termination_current_a == pytest.approx(CELL.cell_capacity_ah / 20)
     model.step(100.0)
     assert model.status is Status.FULL and model.current_a == 0.0, 'charger off when full'
