@@ -6,7 +6,7 @@ set -eo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 export PATH="/usr/bin:$PATH"
 "$root/tools/build.sh"
-cmake -S "$root" -B "$root/build" -DBATTERY_SIMULATOR_WORKSPACE_TEST=ON >/dev/null
+cmake -S "$root" -B "$root/build" -Dbattery_simulator_WORKSPACE_TEST=ON >/dev/null
 source "$root/build/devel/setup.bash"
 rm -rf "$root/build/test_results/battery_simulator"
 status=0

@@ -134,15 +134,48 @@ class BatteryModel:
         """
         if dt_s <= 0.0:
             return
-        p = self.params
         if current_a is None and power_w is None:
             demand = self._mode_demand_a()
         elif current_a is not None:
             demand = current_a
         else:
             demand = power_w / self.voltage_v
-        ns, np_ = p.cells_series, p.cells_parallel
-        cell_demand = demand / np_
+        start = self._state()
+        self._advance(dt_s, demand)
+        if self.status is Status.DISCHARGING and self._below_cut_off():
+            self._cut_off_within(dt_s, demand, start)
+
+    def _state(self):
+        return (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
+                self.status, self._capacity_as)
+
+    def _below_cut_off(self):
+        return (self.state_of_charge <= 0.0
+                or self.voltage_v <= self.params.cell_cutoff_voltage_v * self.params.cells_series)
+
+    def _cut_off_within(self, dt_s, demand, start):
+        """Redo the step up to the moment the cut-off is reached (bisection), then disconnect."""
+        low, high = 0.0, dt_s
+        for _ in range(20):
+            middle = 0.5 * (low + high)
+            self._restore(start)
+            self._advance(middle, demand)
+            if self._below_cut_off():
+                high = middle
+            else:
+                low = middle
+        self._restore(start)
+        self._advance(high, demand)
+        self._become_empty()
+
+    def _restore(self, state):
+        (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
+         self.status, self._capacity_as) = state
+
+    def _advance(self, dt_s, demand):
+        """The exact update for ``demand`` A per pack held over ``dt_s``."""
+        p = self.params
+        cell_demand = demand / p.cells_parallel
         resistance_scale = self._resistance_scale()
         r0 = p.r0_ohm * resistance_scale
         r1 = p.r1_ohm * resistance_scale
@@ -177,9 +210,6 @@ class BatteryModel:
 
         if self.status is Status.CHARGING and self.state_of_charge >= 1.0:
             self._become_full()
-        elif self.status is Status.DISCHARGING and (
-                self.state_of_charge <= 0.0 or self.voltage_v <= p.cell_cutoff_voltage_v * ns):
-            self._become_empty()
 
     def _mode_demand_a(self):
         p = self.params
@@ -235,9 +265,8 @@ class BatteryModel:
             full = self.state_of_charge >= 1.0
             self.status = Status.FULL if full else Status.CHARGING
         elif self.mode is Mode.DISCHARGE:
-            empty = (self.state_of_charge <= 0.0
-                     or self.voltage_v <= self.params.cell_cutoff_voltage_v * self.params.cells_series)
-            self.status = Status.EMPTY if empty else Status.DISCHARGING
+            self.cell_current_a = 0.0
+            self.status = Status.EMPTY if self._below_cut_off() else Status.DISCHARGING
         else:
             self.status = Status.NOT_CHARGING
         self.cell_current_a = 0.0

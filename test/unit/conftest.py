@@ -1,7 +1,8 @@
-"""Masterless unit tests: make the package importable from a plain checkout."""
+"""Masterless unit tests. Under a sourced devel space the package (with its
+generated messages) is importable already; from a plain checkout, use src/."""
+import importlib.util
 import sys
 from pathlib import Path
 
-SOURCE = Path(__file__).resolve().parents[2] / 'src'
-if str(SOURCE) not in sys.path:
-    sys.path.insert(0, str(SOURCE))
+if importlib.util.find_spec('battery_simulator') is None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'src'))

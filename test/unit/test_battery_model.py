@@ -106,7 +106,9 @@ def test_discharge_stops_at_cut_off_and_stays_empty():
         previous_voltage = model.voltage_v
         model.step(5.0)
     assert model.status is Status.EMPTY
-    assert previous_voltage > PACK.cell_cutoff_voltage_v * PACK.cells_series
+    cut_off_v = PACK.cell_cutoff_voltage_v * PACK.cells_series
+    assert previous_voltage > cut_off_v
+    assert model.voltage_v >= cut_off_v, 'the load is cut at the cut-off voltage, not past it'
     assert 0.0 <= model.state_of_charge < 0.02
     model.step(3600.0)
     assert model.status is Status.EMPTY and model.current_a == 0.0, 'load stays disconnected'
@@ -117,7 +119,8 @@ def test_discharge_stops_at_cut_off_and_stays_empty():
 def test_discharge_never_goes_below_zero():
     model = BatteryModel(replace(CELL, cell_cutoff_voltage_v=2.8), state_of_charge=0.001, mode=Mode.DISCHARGE)
     model.step(3600.0, current_a=-10.0)
-    assert model.state_of_charge == 0.0 and model.status is Status.EMPTY
+    assert 0.0 <= model.state_of_charge <= 0.001 and model.status is Status.EMPTY
+    assert model.voltage_v >= 2.8, 'disconnected at the cut-off, not below it'
 
 
 def test_idle_holds_the_level():
@@ -176,8 +179,9 @@ def test_ageing_fades_capacity_per_equivalent_full_cycle():
     assert model.state_of_health == pytest.approx(0.9)
     assert model.snapshot().capacity_ah == pytest.approx(0.9 * CELL.cell_capacity_ah)
     assert model.snapshot().design_capacity_ah == pytest.approx(CELL.cell_capacity_ah)
-    model.step(3600.0 * CELL.cell_capacity_ah / 2.0, current_a=-2.0)  # one full capacity out
-    assert model.cycle_count == pytest.approx(101.0, rel=1e-6)
+    model.step(3600.0 * CELL.cell_capacity_ah / 4.0, current_a=-2.0)  # half the design capacity out
+    assert model.cycle_count == pytest.approx(100.5, rel=1e-6)
+    assert model.state_of_health == pytest.approx(1.0 - 0.001 * 100.5)
 
 
 def test_pack_scales_cells():

@@ -1,0 +1,60 @@
+"""Shared by the rostest nodes: bounded waits and a BatteryState recorder."""
+import threading
+import time
+
+import rospy
+from sensor_msgs.msg import BatteryState
+
+
+def wait_for(condition, timeout_s, what):
+    """Poll ``condition`` until it is true; AssertionError naming ``what`` after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError('timed out after %g s waiting for %s' % (timeout_s, what))
+        if rospy.is_shutdown():
+            raise AssertionError('ROS shut down while waiting for %s' % what)
+        time.sleep(0.02)
+
+
+class Recorder:
+    """Keeps every message of a topic with its arrival time (monotonic)."""
+
+    def __init__(self, topic, msg_type=BatteryState):
+        self._lock = threading.Lock()
+        self._messages = []
+        self._sub = rospy.Subscriber(topic, msg_type, self._on_message, queue_size=100)
+
+    def _on_message(self, msg):
+        with self._lock:
+            self._messages.append((time.monotonic(), msg))
+
+    def count(self):
+        with self._lock:
+            return len(self._messages)
+
+    def since(self, index):
+        with self._lock:
+            return [m for _, m in self._messages[index:]]
+
+    def latest(self):
+        with self._lock:
+            return self._messages[-1][1] if self._messages else None
+
+    def next_after(self, index, timeout_s=10.0):
+        """The first message after the ``index``-th."""
+        wait_for(lambda: self.count() > index, timeout_s, 'a message on %s' % self._sub.name)
+        return self.since(index)[0]
+
+    def wait_until(self, predicate, timeout_s, what):
+        """The first new message for which ``predicate`` holds."""
+        found = []
+
+        def check():
+            latest = self.latest()
+            if latest is not None and predicate(latest):
+                found.append(latest)
+                return True
+            return False
+        wait_for(check, timeout_s, what)
+        return found[0]
