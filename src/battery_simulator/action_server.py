@@ -37,6 +37,7 @@ from battery_simulator.ros_parameters import (StartupError, checked_param, exit_
 MODE_PARAM = 'MyRobot/BatteryStatus'
 STATE_TOPIC = 'battery_simulator/battery_state'
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
+INVALID_LOG_PERIOD_S = 10.0
 _INVALID = object()
 
 
@@ -91,6 +92,7 @@ class BatterySimServer:
         self._mode_generation = 0   # bumped whenever a goal writes the mode parameter
         self._stopping = threading.Event()
         self._logged = (None, 0.0)  # (whole percent, wall time) of the last progress line
+        self._invalid_logged = (None, 0.0)  # (repr of the bad mode value, wall time) last logged
         rospy.set_param(MODE_PARAM, 1 if charging else 0)
         self._state_pub = rospy.Publisher(STATE_TOPIC, BatteryState, queue_size=1, latch=True)
         self._server = actionlib.SimpleActionServer(
@@ -145,11 +147,20 @@ class BatterySimServer:
         mode = parse_mode(raw_mode)
         if mode is _INVALID:
             if raw_mode is not _INVALID:
-                rospy.logerr_throttle(5.0, '%s = %r is invalid: must be 1/true (charge), 0/false '
-                                      '(discharge) or unset (hold); keeping %s',
-                                      rospy.resolve_name(MODE_PARAM), raw_mode, self.model.mode.value)
+                self._log_invalid_mode(raw_mode)
             return
+        self._invalid_logged = (None, 0.0)
         self.model.set_mode(mode)
+
+    def _log_invalid_mode(self, raw_mode):
+        """An error at once for each new bad value, then every INVALID_LOG_PERIOD_S while it stays."""
+        value, logged_at = self._invalid_logged
+        now = time.monotonic()
+        if value == repr(raw_mode) and now - logged_at < INVALID_LOG_PERIOD_S:
+            return
+        self._invalid_logged = (repr(raw_mode), now)
+        rospy.logerr('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
+                     '(hold); keeping %s', rospy.resolve_name(MODE_PARAM), raw_mode, self.model.mode.value)
 
     def _publish_state(self, snapshot):
         self._state_pub.publish(to_battery_state(snapshot, self.params, stamp=rospy.Time.now()))

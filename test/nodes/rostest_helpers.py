@@ -46,6 +46,16 @@ class Recorder:
         wait_for(lambda: self.count() > index, timeout_s, 'a message on %s' % self._sub.name)
         return self.since(index)[0]
 
+    def wait_new(self, index, predicate, timeout_s, what):
+        """The first message after the ``index``-th for which ``predicate`` holds."""
+        found = []
+
+        def check():
+            found.extend(m for m in self.since(index) if predicate(m))
+            return bool(found)
+        wait_for(check, timeout_s, what)
+        return found[0]
+
     def wait_until(self, predicate, timeout_s, what):
         """The first new message for which ``predicate`` holds."""
         found = []
