@@ -56,8 +56,13 @@ def read_settings():
     """All start-up parameters, checked; raises StartupError or ParameterError."""
     config = checked_param('~config', str(default_config_path()),
                            lambda v: isinstance(v, str) and v != '', 'a path to a YAML file')
+    try:
+        params = load_yaml(config)
+    except ParameterError as error:
+        raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), config, error)) \
+            from None
     settings = dict(
-        params=load_yaml(config),
+        params=params,
         time_scale=checked_param('~time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0'),
         update_rate=checked_param('~update_rate', 10.0, lambda v: is_number(v) and 0 < v <= 1000,
                                   'a number in (0, 1000] Hz'),
@@ -222,7 +227,7 @@ def main():
     rospy.init_node('BatterySimServer')
     try:
         settings = read_settings()
-    except (StartupError, ParameterError) as error:
+    except StartupError as error:
         exit_on_startup_error(error)
     BatterySimServer(**settings).start()
     rospy.spin()
