@@ -1,0 +1,82 @@
+#!/usr/bin/python3
+"""rostest: sim.launch inside <group ns="robot1">, and battery_state_pub
+riding out a server that dies and comes back (robot2)."""
+import os
+import signal
+import subprocess
+import unittest
+
+import actionlib
+import rospy
+import rostest
+from actionlib_msgs.msg import GoalStatus
+from rosgraph_msgs.msg import Log
+from sensor_msgs.msg import BatteryState
+
+from battery_simulator.msg import battery_simAction, battery_simGoal
+from rostest_helpers import Recorder, wait_for
+
+
+def start_server(namespace):
+    """The action server as a child process in ``namespace`` (ended by pid)."""
+    env = dict(os.environ, ROS_NAMESPACE=namespace)
+    return subprocess.Popen(['rosrun', 'battery_simulator', 'battery_sim_server.py', '__name:=BatterySimServer',
+                             '_time_scale:=1000', '_initial_percentage:=80'],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+
+
+def stop(process):
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGINT)
+        try:
+            process.wait(timeout=15.0)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+class TestNamespaceAndStale(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_namespace_and_stale')
+        cls.log = Recorder('/rosout', Log)
+
+    def test_everything_resolves_under_the_group_namespace(self):
+        status = Recorder('/robot1/battery_status', BatteryState)
+        wait_for(lambda: status.count() > 0, 30.0, '/robot1/battery_status')
+        self.assertEqual(rospy.get_param('/robot1/MyRobot/BatteryStatus'), 0)
+        self.assertFalse(rospy.has_param('/MyRobot/BatteryStatus'), 'nothing in the root namespace')
+        client = actionlib.SimpleActionClient('/robot1/battery_simulator', battery_simAction)
+        self.assertTrue(client.wait_for_server(rospy.Duration(30.0)), 'Could not connect to /robot1/battery_simulator')
+        client.send_goal(battery_simGoal(charge_state=True))
+        self.assertTrue(client.wait_for_result(rospy.Duration(60.0)))
+        self.assertEqual(client.get_state(), GoalStatus.SUCCEEDED)
+        self.assertEqual(rospy.get_param('/robot1/MyRobot/BatteryStatus'), 1)
+        status.wait_until(lambda m: m.power_supply_status == BatteryState.POWER_SUPPLY_STATUS_FULL, 10.0, 'FULL')
+
+    def test_publisher_keeps_the_last_state_while_the_server_is_gone(self):
+        status = Recorder('/robot2/battery_status', BatteryState)
+        server = start_server('robot2')
+        try:
+            running = status.wait_until(lambda m: m.current < 0, 30.0, 'robot2 discharging')
+            self.assertLess(running.percentage, 0.8)
+        finally:
+            stop(server)
+        logged = self.log.count()
+        self.log.wait_new(logged, lambda m: 'stale' in m.msg and m.level == Log.WARN, 30.0, 'a stale-data warning')
+        seen = status.count()
+        last = status.next_after(seen)
+        later = status.next_after(seen + 2)
+        self.assertEqual(later.percentage, last.percentage, 'the last known state is republished')
+        self.assertGreater(later.header.stamp, last.header.stamp, 'with fresh stamps')
+        server = start_server('robot2')
+        try:
+            status.wait_until(lambda m: abs(m.percentage - later.percentage) > 0.01, 30.0, 'updates resumed')
+        finally:
+            stop(server)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('battery_simulator', 'namespace_and_stale', TestNamespaceAndStale)
