@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Sends a charge (1) or discharge (0) goal to battery_simulator and shows progress."""
 from battery_simulator.client import main
 

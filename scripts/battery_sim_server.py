@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """The battery_simulator action server node (BatterySimServer)."""
 from battery_simulator.action_server import main
 

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """The sensor_msgs/BatteryState publisher node (battery_state_pub)."""
 from battery_simulator.state_publisher import main
 

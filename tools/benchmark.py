@@ -1,0 +1,64 @@
+#!/usr/bin/python3
+"""Speed figures of the battery model (a table of measured numbers, no pass/fail).
+
+    /usr/bin/python3 tools/benchmark.py
+
+Target (issue 3): one model step <= 20 us in CPython, so a day of battery life
+at 10 Hz (864,000 steps) replays in seconds.
+"""
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
+
+from battery_simulator.battery_model import BatteryModel, Mode  # noqa: E402
+from battery_simulator.parameters import preset  # noqa: E402
+from battery_simulator.replay import replay  # noqa: E402
+
+STEPS = 200_000
+REPEATS = 5
+
+
+def per_step_us(mode, soc, **step_args):
+    """Median microseconds per step over REPEATS runs of STEPS steps of 0.1 s."""
+    runs = []
+    for _ in range(REPEATS):
+        model = BatteryModel(preset('lg_hg2_3s1p'), state_of_charge=soc, mode=mode)
+        model.set_extra_load('motion', current_a=0.0)
+        step = model.step
+        start = time.perf_counter()
+        for _ in range(STEPS):
+            step(1e-4, **step_args)  # tiny dt: the state stays in the regime being measured
+        runs.append((time.perf_counter() - start) / STEPS * 1e6)
+    return statistics.median(runs)
+
+
+def day_replay_s():
+    """Wall seconds to replay 24 h at 10 Hz (864,000 steps) through replay()."""
+    profile = [(0.0, 'current', -0.5), (86400.0, 'current', 0.0)]
+    start = time.perf_counter()
+    rows = list(replay(preset('lg_hg2_7s4p'), profile, max_step_s=0.1))
+    assert len(rows) == 2
+    return time.perf_counter() - start
+
+
+def main():
+    rows = [
+        ('step, discharging (mode load)', '%.2f us' % per_step_us(Mode.DISCHARGE, 0.8)),
+        ('step, CC charging', '%.2f us' % per_step_us(Mode.CHARGE, 0.3)),
+        ('step, CV charging (taper)', '%.2f us' % per_step_us(Mode.CHARGE, 0.995)),
+        ('step, replayed current', '%.2f us' % per_step_us(Mode.IDLE, 0.5, current_a=-2.0)),
+        ('24 h at 10 Hz replay (864,000 steps)', '%.2f s' % day_replay_s()),
+    ]
+    width = max(len(name) for name, _ in rows)
+    print('%-*s  %s' % (width, 'measurement (CPython %d.%d)' % sys.version_info[:2], 'figure'))
+    print('-' * (width + 12))
+    for name, figure in rows:
+        print('%-*s  %s' % (width, name, figure))
+    print('target: a step <= 20 us')
+
+
+if __name__ == '__main__':
+    main()
