@@ -19,9 +19,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src'))
 
-from battery_simulator.battery_model import BatteryModel, Mode, OcvCurve  # noqa: E402
-from battery_simulator.measured_data import (charge_runs, load_cycler_csv, rmse,  # noqa: E402
-                                             simulate, time_to_full)
+from battery_simulator.measured_data import (charge_runs, charge_time_error,  # noqa: E402
+                                             discharge_rmse, load_cycler_csv, rmse, simulate)
 from battery_simulator.parameters import BatteryParameters  # noqa: E402
 
 DATA = ROOT / 'test' / 'data' / 'lg_hg2'
@@ -73,39 +72,16 @@ def ocv_table():
     return list(SOC_GRID), volts, discharged_ah
 
 
-def run_soc(samples):
-    """SOC along a discharge, relative to the charge that run delivered."""
-    start_ah = samples[0].capacity_ah - samples[0].current_a * samples[0].time_s / 3600.0
-    delivered_ah = start_ah - samples[-1].capacity_ah
-    return [1.0 - (start_ah - s.capacity_ah) / delivered_ah for s in samples]
-
-
 def discharge_errors(params):
     """Voltage RMSE (V) over the 0.5C discharge and the 2C discharge (to 97 % DoD)."""
-    errors = []
-    for name, exclude in (('549_Dis_0p5C.csv', 0.0), ('549_Dis_2C.csv', EXCLUDED_END_SOC)):
-        samples = load_cycler_csv(DATA / name)
-        test = replace(params, ambient_temperature_c=samples[0].temperature_c)
-        _, simulated, _ = simulate(test, samples, state_of_charge=1.0)
-        kept = [(v, s.voltage_v) for v, s, soc in zip(simulated, samples, run_soc(samples))
-                if soc >= exclude]
-        errors.append(rmse([k[0] for k in kept], [k[1] for k in kept]))
-    return errors
+    return [discharge_rmse(params, load_cycler_csv(DATA / name), exclude)[0]
+            for name, exclude in (('549_Dis_0p5C.csv', 0.0), ('549_Dis_2C.csv', EXCLUDED_END_SOC))]
 
 
 def charge_time_errors(params):
     """Relative error of the simulated time to full for each measured 3 A CC-CV charge."""
-    errors = []
-    for rest, run in charge_runs(load_cycler_csv(DATA / '549_Charge.csv')):
-        test = replace(params, ambient_temperature_c=rest.temperature_c)
-        model = BatteryModel(test, state_of_charge=model_ocv(test).soc(rest.voltage_v), mode=Mode.IDLE)
-        measured_s = run[-1].time_s - rest.time_s
-        errors.append(time_to_full(model) / measured_s - 1.0)
-    return errors
-
-
-def model_ocv(params):
-    return OcvCurve(params.ocv_soc, params.ocv_voltage_v)
+    return [charge_time_error(params, rest, run)
+            for rest, run in charge_runs(load_cycler_csv(DATA / '549_Charge.csv'))]
 
 
 def score(params):
@@ -142,7 +118,6 @@ def main():
     parser.add_argument('--write', action='store_true', help='write config/presets/lg_hg2_cell.yaml')
     args = parser.parse_args()
     soc, volts, capacity = ocv_table()
-    OcvCurve(soc, volts)
     params = BatteryParameters(name='lg_hg2_cell', cell_capacity_ah=round(capacity, 3),
                                ocv_soc=tuple(soc), ocv_voltage_v=tuple(volts),
                                cell_charge_voltage_v=CHARGE_VOLTAGE_V,

@@ -6,8 +6,9 @@ Used to fit the LG HG2 preset (tools/fit_lg_hg2.py) and to validate the model
 import csv
 import math
 from collections import namedtuple
+from dataclasses import replace
 
-from battery_simulator.battery_model import BatteryModel, Mode, Status
+from battery_simulator.battery_model import BatteryModel, Mode, OcvCurve, Status
 
 #: One logged sample: time since the start of the file's first step (s), step number,
 #: status (DCH, CHA, PAU), voltage (V), current (A, negative discharging),
@@ -103,3 +104,30 @@ def time_to_full(model, max_step_s=10.0, limit_s=86400.0):
         model.step(max_step_s)
         elapsed += max_step_s
     return elapsed
+
+
+def run_soc(samples):
+    """SOC along a measured discharge, relative to the charge that run delivered."""
+    start_ah = samples[0].capacity_ah - samples[0].current_a * samples[0].time_s / 3600.0
+    delivered_ah = start_ah - samples[-1].capacity_ah
+    return [1.0 - (start_ah - s.capacity_ah) / delivered_ah for s in samples]
+
+
+def discharge_rmse(params, samples, excluded_end_soc=0.0):
+    """Voltage RMSE (V) of the model over a measured discharge from full, at the
+    measured ambient, leaving out the run's last ``excluded_end_soc``.
+    Returns (rmse, number of samples compared)."""
+    test = replace(params, ambient_temperature_c=samples[0].temperature_c)
+    _, simulated, _ = simulate(test, samples, state_of_charge=1.0)
+    kept = [(v, s.voltage_v) for v, s, soc in zip(simulated, samples, run_soc(samples))
+            if soc >= excluded_end_soc]
+    return rmse([k[0] for k in kept], [k[1] for k in kept]), len(kept)
+
+
+def charge_time_error(params, rest, run):
+    """Relative error of the model's time to full against one measured charge
+    (see charge_runs), starting at the SOC of the rest voltage before it."""
+    test = replace(params, ambient_temperature_c=rest.temperature_c)
+    start_soc = OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v)
+    simulated_s = time_to_full(BatteryModel(test, state_of_charge=start_soc, mode=Mode.IDLE))
+    return simulated_s / (run[-1].time_s - rest.time_s) - 1.0

@@ -4,33 +4,28 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.battery_model import BatteryModel, Mode, OcvCurve
-from battery_simulator.measured_data import charge_runs, load_cycler_csv, rmse, simulate, time_to_full
+from battery_simulator.measured_data import (charge_runs, charge_time_error, discharge_rmse,
+                                             load_cycler_csv, simulate)
 from battery_simulator.parameters import preset
 
 DATA = Path(__file__).resolve().parents[1] / 'data' / 'lg_hg2'
 CELL = preset('lg_hg2_cell')
 
 
-def discharge_rmse(name, excluded_end_soc):
+def measured_discharge_rmse(name, excluded_end_soc):
     samples = load_cycler_csv(DATA / name)
-    params = replace(CELL, ambient_temperature_c=samples[0].temperature_c)
-    _, simulated, _ = simulate(params, samples, state_of_charge=1.0)
-    start_ah = samples[0].capacity_ah - samples[0].current_a * samples[0].time_s / 3600.0
-    delivered_ah = start_ah - samples[-1].capacity_ah
-    kept = [(v, s.voltage_v) for v, s in zip(simulated, samples)
-            if 1.0 - (start_ah - s.capacity_ah) / delivered_ah >= excluded_end_soc]
-    assert len(kept) > 0.9 * len(samples) * (1 - excluded_end_soc) - 2
-    return rmse([k[0] for k in kept], [k[1] for k in kept])
+    error, compared = discharge_rmse(CELL, samples, excluded_end_soc)
+    assert compared > 0.9 * len(samples) * (1 - excluded_end_soc) - 2
+    return error
 
 
 def test_half_c_discharge_voltage_rmse_within_25_mv():
-    error = discharge_rmse('549_Dis_0p5C.csv', 0.0)
+    error = measured_discharge_rmse('549_Dis_0p5C.csv', 0.0)
     assert error <= 0.025, 'RMSE %.1f mV' % (1000 * error)
 
 
 def test_two_c_discharge_voltage_rmse_within_35_mv():
-    error = discharge_rmse('549_Dis_2C.csv', 0.03)
+    error = measured_discharge_rmse('549_Dis_2C.csv', 0.03)
     assert error <= 0.035, 'RMSE %.1f mV' % (1000 * error)
 
 
@@ -49,13 +44,9 @@ def test_cc_cv_charge_reaches_termination_within_5_percent_of_measured_time(inde
     assert len(runs) == 4
     rest, run = runs[index]
     assert run[0].current_a == pytest.approx(3.0, abs=0.01), 'a 3 A CC-CV charge'
-    params = replace(CELL, ambient_temperature_c=rest.temperature_c, charge_current_a=3.0,
-                     termination_current_a=run[-1].current_a)
-    start_soc = OcvCurve(params.ocv_soc, params.ocv_voltage_v).soc(rest.voltage_v)
-    simulated_s = time_to_full(BatteryModel(params, state_of_charge=start_soc, mode=Mode.IDLE))
-    measured_s = run[-1].time_s - rest.time_s
-    assert simulated_s == pytest.approx(measured_s, rel=0.05), \
-        'simulated %.0f s, measured %.0f s' % (simulated_s, measured_s)
+    params = replace(CELL, charge_current_a=3.0, termination_current_a=run[-1].current_a)
+    error = charge_time_error(params, rest, run)
+    assert abs(error) <= 0.05, 'simulated time to full off by %+.1f %%' % (100 * error)
 
 
 def test_loader_names_the_line_of_a_bad_row(tmp_path):
