@@ -3,6 +3,6 @@ from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
 setup(**generate_distutils_setup(
-    packages=['battery_simulator'],
+    packages=['battery_simulator', 'battery_simulator.core', 'battery_simulator.nodes'],
     package_dir={'': 'src'},
 ))

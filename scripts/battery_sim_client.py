@@ -1,5 +1,5 @@
 #!/usr/bin/python3
 """Sends a charge (1) or discharge (0) goal to battery_simulator and shows progress."""
-from battery_simulator.client import main
+from battery_simulator.nodes.client import main
 
 main()

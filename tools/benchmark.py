@@ -13,9 +13,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
 
-from battery_simulator.battery_model import BatteryModel, Mode  # noqa: E402
-from battery_simulator.parameters import preset  # noqa: E402
-from battery_simulator.replay import replay  # noqa: E402
+from battery_simulator.core.battery_model import BatteryModel, Mode  # noqa: E402
+from battery_simulator.core.parameters import preset  # noqa: E402
+from battery_simulator.core.replay import replay  # noqa: E402
 
 STEPS = 200_000
 REPEATS = 5

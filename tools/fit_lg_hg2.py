@@ -19,9 +19,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src'))
 
-from battery_simulator.measured_data import (charge_runs, charge_time_error,  # noqa: E402
+from battery_simulator.core.measured_data import (charge_runs, charge_time_error,  # noqa: E402
                                              discharge_rmse, load_cycler_csv, rmse, simulate)
-from battery_simulator.parameters import BatteryParameters  # noqa: E402
+from battery_simulator.core.parameters import BatteryParameters  # noqa: E402
 
 DATA = ROOT / 'test' / 'data' / 'lg_hg2'
 SOC_GRID = (0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1, 0.125, 0.15, 0.2,
@@ -177,6 +177,11 @@ termination_current_a: null     # C/20
 load_current_a: 1.5             # 0.5C
 cell_heat_capacity_j_per_k: %(heat_capacity).0f
 cell_heat_transfer_w_per_k: %(transfer).2f
+# Limits from the LG HG2 datasheet (LG Chem, INR18650HG2, 2014): 20 A maximum
+# continuous discharge, 4 A maximum charge, discharge temperature up to 75 degC.
+cell_max_discharge_current_a: 20.0
+cell_max_charge_current_a: 4.0
+protection_temperature_c: 75.0
 serial_number: LG-HG2-549
 '''
 

@@ -1,5 +1,6 @@
 """battery_simulator: a simulated robot battery for ROS 1.
 
-The battery model (``battery_model``, ``parameters``, ``replay``) imports no
-rospy; the ROS nodes (``action_server``, ``state_publisher``, ``client``) wrap it.
+``battery_simulator.core`` is the ROS-free battery model (``battery_model``,
+``parameters``, ``replay``, ``measured_data``); ``battery_simulator.nodes``
+holds the ROS nodes that wrap it and what they share.
 """

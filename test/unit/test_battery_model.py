@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from battery_simulator.battery_model import BatteryModel, Health, Mode, OcvCurve, Status
-from battery_simulator.measured_data import time_to_full
-from battery_simulator.parameters import preset
+from battery_simulator.core.battery_model import BatteryModel, Health, Mode, OcvCurve, Status
+from battery_simulator.core.measured_data import time_to_full
+from battery_simulator.core.parameters import preset
 
 CELL = preset('lg_hg2_cell')
 PACK = preset('lg_hg2_3s1p')

@@ -3,7 +3,7 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.parameters import (PARAMETER_NAMES, BatteryParameters, ParameterError,
+from battery_simulator.core.parameters import (PARAMETER_NAMES, BatteryParameters, ParameterError,
                                           default_config_path, load_yaml, preset, preset_names)
 
 BAD_VALUES = [
@@ -29,7 +29,7 @@ def test_invalid_value_names_parameter_value_and_rule(name, value):
 
 
 def test_every_parameter_has_a_unit_or_is_a_count_or_text():
-    units = ('_ah', '_v', '_ohm', '_s', '_a', '_w', '_c', '_k', '_j_per_k', '_w_per_k')
+    units = ('_ah', '_v', '_ohm', '_s', '_a', '_w', '_c', '_k', '_j_per_k', '_w_per_k', '_w_per_mps', '_w_per_radps')
     unitless = {'name', 'cells_series', 'cells_parallel', 'ocv_soc', 'coulombic_efficiency',
                 'capacity_fade_per_cycle', 'initial_cycle_count', 'location', 'serial_number', 'source'}
     for name in PARAMETER_NAMES:

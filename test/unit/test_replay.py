@@ -1,4 +1,4 @@
-"""The battery_replay CLI (python3 -m battery_simulator.replay)."""
+"""The battery_replay CLI (python3 -m battery_simulator.core.replay)."""
 import csv
 import io
 import subprocess
@@ -7,14 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.parameters import preset
-from battery_simulator.replay import OUTPUT_COLUMNS, ProfileError, read_profile, replay
+from battery_simulator.core.parameters import preset
+from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, read_profile, replay
 
 SOURCE = Path(__file__).resolve().parents[2] / 'src'
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, '-m', 'battery_simulator.replay', *map(str, args)],
+    return subprocess.run([sys.executable, '-m', 'battery_simulator.core.replay', *map(str, args)],
                           capture_output=True, text=True, timeout=60,
                           env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
 

@@ -4,9 +4,9 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.measured_data import (charge_runs, charge_time_error, discharge_rmse,
+from battery_simulator.core.measured_data import (charge_runs, charge_time_error, discharge_rmse,
                                              load_cycler_csv, simulate)
-from battery_simulator.parameters import preset
+from battery_simulator.core.parameters import preset
 
 DATA = Path(__file__).resolve().parents[1] / 'data' / 'lg_hg2'
 CELL = preset('lg_hg2_cell')

@@ -1,7 +1,10 @@
-"""Model snapshot -> sensor_msgs/BatteryState (no rospy: the message class only)."""
+"""Model snapshot -> sensor_msgs/BatteryState and BatterySimState (no rospy: message classes only)."""
+import math
+
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.battery_model import Health, Status
+from battery_simulator.core.battery_model import Health, Status
+from battery_simulator.msg import BatterySimState
 
 _SUPPLY_STATUS = {
     Status.CHARGING: BatteryState.POWER_SUPPLY_STATUS_CHARGING,
@@ -14,6 +17,14 @@ _SUPPLY_HEALTH = {
     Health.GOOD: BatteryState.POWER_SUPPLY_HEALTH_GOOD,
     Health.OVERHEAT: BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT,
     Health.COLD: BatteryState.POWER_SUPPLY_HEALTH_COLD,
+}
+#: BatterySimState.charging_state (and the diagnostics' "Charging State")
+CHARGING_STATE = {
+    Status.CHARGING: 'Charging',
+    Status.DISCHARGING: 'Discharging',
+    Status.FULL: 'Full',
+    Status.NOT_CHARGING: 'Not Charging',
+    Status.EMPTY: 'Empty',
 }
 
 
@@ -39,3 +50,19 @@ def to_battery_state(snapshot, params, stamp=None, frame_id=''):
     msg.location = params.location
     msg.serial_number = params.serial_number
     return msg
+
+
+def to_sim_state(snapshot, params, stamp=None, load_power_w=0.0, faults=()):
+    """The server's full state message: the BatteryState plus what diagnostics and the gate need."""
+    remaining = snapshot.time_remaining_s
+    return BatterySimState(
+        battery=to_battery_state(snapshot, params, stamp=stamp),
+        charging_state=CHARGING_STATE[snapshot.status],
+        cut_off=snapshot.cut_off.value if snapshot.cut_off is not None else '',
+        cycle_count=snapshot.cycle_count,
+        state_of_health=snapshot.state_of_health,
+        time_remaining_s=remaining if remaining is not None else math.nan,
+        load_power_w=load_power_w,
+        active_faults=sorted(faults),
+        sensor_dropout='sensor_dropout' in faults,
+    )

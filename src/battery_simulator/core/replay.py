@@ -1,23 +1,30 @@
 """Replay a CSV load profile through the battery model (no ROS needed).
 
     battery_replay.py profile.csv [--preset NAME | --config FILE] [--soc 0.8] [-o out.csv]
-    python3 -m battery_simulator.replay profile.csv ...
+    python3 -m battery_simulator.core.replay profile.csv ...
 
-The profile has a header with ``time`` (s, increasing) and ``current`` (A,
-negative = discharge, as in sensor_msgs/BatteryState) or ``power`` (W, same
-sign). Each row's value is held until the next row's time. The output has one
+The profile has a header with ``time`` (s, never decreasing: equal times, as
+cycler logs have, are a zero-length segment) and ``current`` (A, negative =
+discharge, as in sensor_msgs/BatteryState) or ``power`` (W, same sign). Each
+row's value is held until the next row's time. The output has one
 row per profile row: the state at that time (time, voltage, current, soc 0..1,
 temperature, status).
 """
 import argparse
 import csv
 import math
+import os
 import sys
 
-from battery_simulator.battery_model import BatteryModel, Mode
-from battery_simulator.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
+from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
 
 OUTPUT_COLUMNS = ('time', 'voltage', 'current', 'soc', 'temperature', 'status')
+#: the shortest --max-step, s
+MIN_STEP_S = 0.001
+#: the most model steps one profile segment is cut into (the model is exact
+#: for a held current; sub-steps only refine power loads and heating)
+MAX_STEPS_PER_SEGMENT = 10000
 
 
 class ProfileError(ValueError):
@@ -27,32 +34,41 @@ class ProfileError(ValueError):
 def read_profile(path):
     """[(time_s, kind, value)] from a profile CSV, kind 'current' or 'power'."""
     try:
-        stream = open(path, newline='', encoding='utf-8')
+        stream = open(path, newline='', encoding='utf-8-sig')  # -sig: spreadsheets write a BOM
     except OSError as error:
         raise ProfileError('%s: cannot read: %s' % (path, error.strerror)) from None
-    with stream:
-        reader = csv.reader(stream)
-        header = [name.strip().lower() for name in next(reader, [])]
-        if 'time' not in header or not ({'current', 'power'} & set(header)):
-            raise ProfileError('%s line 1: the header must name a "time" column and a "current" '
-                               'or "power" column, got %s' % (path, ','.join(header) or 'nothing'))
-        kind = 'current' if 'current' in header else 'power'
-        time_column, value_column = header.index('time'), header.index(kind)
-        rows = []
-        for line, row in enumerate(reader, start=2):
-            if not row or all(not cell.strip() for cell in row):
-                continue
-            try:
-                time_s, value = float(row[time_column]), float(row[value_column])
-            except (ValueError, IndexError):
-                raise ProfileError('%s line %d: expected numbers in "time" and "%s", got %s'
-                                   % (path, line, kind, ','.join(row))) from None
-            if not (math.isfinite(time_s) and math.isfinite(value)):
-                raise ProfileError('%s line %d: values must be finite, got %s' % (path, line, ','.join(row)))
-            if rows and time_s <= rows[-1][0]:
-                raise ProfileError('%s line %d: time %g s is not after the previous row\'s %g s'
-                                   % (path, line, time_s, rows[-1][0]))
-            rows.append((time_s, kind, value))
+    try:
+        with stream:
+            return _read_rows(path, csv.reader(stream))
+    except UnicodeDecodeError as error:
+        raise ProfileError('%s: not a UTF-8 text CSV file (byte %d)' % (path, error.start)) from None
+    except csv.Error as error:
+        raise ProfileError('%s: not a CSV file: %s' % (path, error)) from None
+
+
+def _read_rows(path, reader):
+    """The (time_s, kind, value) rows after the header; ProfileError naming the line."""
+    header = [name.strip().lower() for name in next(reader, [])]
+    if 'time' not in header or not ({'current', 'power'} & set(header)):
+        raise ProfileError('%s line 1: the header must name a "time" column and a "current" '
+                           'or "power" column, got %s' % (path, ','.join(header) or 'nothing'))
+    kind = 'current' if 'current' in header else 'power'
+    time_column, value_column = header.index('time'), header.index(kind)
+    rows = []
+    for line, row in enumerate(reader, start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        try:
+            time_s, value = float(row[time_column]), float(row[value_column])
+        except (ValueError, IndexError):
+            raise ProfileError('%s line %d: expected numbers in "time" and "%s", got %s'
+                               % (path, line, kind, ','.join(row))) from None
+        if not (math.isfinite(time_s) and math.isfinite(value)):
+            raise ProfileError('%s line %d: values must be finite, got %s' % (path, line, ','.join(row)))
+        if rows and time_s < rows[-1][0]:
+            raise ProfileError('%s line %d: time %g s is before the previous row\'s %g s'
+                               % (path, line, time_s, rows[-1][0]))
+        rows.append((time_s, kind, value))
     if not rows:
         raise ProfileError('%s: no data rows after the header' % path)
     return rows
@@ -63,7 +79,10 @@ def replay(params, profile, state_of_charge=1.0, max_step_s=1.0):
     model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
     yield _row(profile[0][0], model)
     for (start_s, kind, value), (end_s, _, _) in zip(profile, profile[1:]):
-        steps = max(1, int(math.ceil((end_s - start_s) / max_step_s)))
+        if value == 0.0:
+            steps = 1   # a rest is exact in one step
+        else:
+            steps = min(max(1, int(math.ceil((end_s - start_s) / max_step_s))), MAX_STEPS_PER_SEGMENT)
         dt_s = (end_s - start_s) / steps
         for _ in range(steps):
             if kind == 'current':
@@ -85,10 +104,10 @@ def _fraction(text):
     return value
 
 
-def _positive(text):
+def _step(text):
     value = float(text)
-    if not value > 0.0:
-        raise argparse.ArgumentTypeError('%s is not > 0' % text)
+    if not (math.isfinite(value) and value >= MIN_STEP_S):
+        raise argparse.ArgumentTypeError('%s is not a number of seconds >= %g' % (text, MIN_STEP_S))
     return value
 
 
@@ -100,7 +119,8 @@ def parse_arguments(argv):
     source.add_argument('--preset', help='battery preset (default %s)' % DEFAULT_PRESET)
     source.add_argument('--config', help='YAML file of battery parameters')
     parser.add_argument('--soc', type=_fraction, default=1.0, help='initial state of charge, 0..1 (default 1)')
-    parser.add_argument('--max-step', type=_positive, default=1.0, help='longest model step, s (default 1)')
+    parser.add_argument('--max-step', type=_step, default=1.0,
+                        help='longest model step, s (default 1, at least %g)' % MIN_STEP_S)
     parser.add_argument('-o', '--output', help='output CSV file (default: stdout)')
     parser.add_argument('--list-presets', action='store_true', help='list the presets and exit')
     args = parser.parse_args(argv)
@@ -126,8 +146,12 @@ def main(argv=None):
                 _write(stream, rows)
         except OSError as error:
             sys.exit('battery_replay: cannot write %s: %s' % (args.output, error.strerror))
-    else:
+        return
+    try:
         _write(sys.stdout, rows)
+        sys.stdout.flush()
+    except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _write(stream, rows):

@@ -78,6 +78,12 @@ class BatteryParameters:
     arrhenius_temperature_k: float = 2800.0
     #: temperature at which r0_ohm and r1_ohm hold, degC
     reference_temperature_c: float = 25.0
+    #: maximum continuous discharge current per cell (datasheet), A: the protection cuts the load off above it
+    cell_max_discharge_current_a: float = 20.0
+    #: maximum charge current per cell (datasheet), A: the protection cuts the charger off above it
+    cell_max_charge_current_a: float = 4.0
+    #: the pack protection disconnects load and charger at this cell temperature, degC
+    protection_temperature_c: float = 75.0
     #: health OVERHEAT above this cell temperature, degC
     overheat_temperature_c: float = 60.0
     #: health COLD below this cell temperature, degC
@@ -86,6 +92,16 @@ class BatteryParameters:
     capacity_fade_per_cycle: float = 0.0002
     #: equivalent full cycles the pack has done at start
     initial_cycle_count: float = 0.0
+    #: motion load: drive power per m/s of |cmd_vel.linear.x|, W/(m/s)
+    drive_power_w_per_mps: float = 0.0
+    #: motion load: turning power per rad/s of |cmd_vel.angular.z|, W/(rad/s)
+    turn_power_w_per_radps: float = 0.0
+    #: a cmd_vel older than this counts as standing still, s
+    cmd_vel_timeout_s: float = 0.5
+    #: measurement_noise fault: standard deviation of the reported voltage, V
+    voltage_noise_v: float = 0.02
+    #: measurement_noise fault: standard deviation of the reported current, A
+    current_noise_a: float = 0.05
     #: BatteryState.location
     location: str = 'base'
     #: BatteryState.serial_number
@@ -109,11 +125,14 @@ class BatteryParameters:
         return self.termination_current_a
 
 
+#: the most cells in series or in parallel a config may ask for
+MAX_CELLS = 200
+
 # (parameter, check, what is allowed); checked in this order.
 _RULES = (
     ('name', lambda v: isinstance(v, str) and v != '', 'a non-empty string'),
-    ('cells_series', _is_count, 'a whole number >= 1'),
-    ('cells_parallel', _is_count, 'a whole number >= 1'),
+    ('cells_series', lambda v: _is_count(v) and v <= MAX_CELLS, 'a whole number in [1, %d]' % MAX_CELLS),
+    ('cells_parallel', lambda v: _is_count(v) and v <= MAX_CELLS, 'a whole number in [1, %d]' % MAX_CELLS),
     ('cell_capacity_ah', _positive, 'a number > 0'),
     ('r0_ohm', _positive, 'a number > 0'),
     ('r1_ohm', _non_negative, 'a number >= 0'),
@@ -132,10 +151,18 @@ _RULES = (
     ('cell_heat_transfer_w_per_k', _positive, 'a number > 0'),
     ('arrhenius_temperature_k', _non_negative, 'a number >= 0'),
     ('reference_temperature_c', lambda v: _is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
+    ('cell_max_discharge_current_a', _positive, 'a number > 0'),
+    ('cell_max_charge_current_a', _positive, 'a number > 0'),
+    ('protection_temperature_c', lambda v: _is_number(v) and 0 < v <= 150, 'a number in (0, 150]'),
     ('overheat_temperature_c', _is_number, 'a number'),
     ('cold_temperature_c', _is_number, 'a number'),
     ('capacity_fade_per_cycle', lambda v: _is_number(v) and 0 <= v < 0.01, 'a number in [0, 0.01)'),
     ('initial_cycle_count', _non_negative, 'a number >= 0'),
+    ('drive_power_w_per_mps', _non_negative, 'a number >= 0'),
+    ('turn_power_w_per_radps', _non_negative, 'a number >= 0'),
+    ('cmd_vel_timeout_s', _positive, 'a number > 0'),
+    ('voltage_noise_v', _non_negative, 'a number >= 0'),
+    ('current_noise_a', _non_negative, 'a number >= 0'),
     ('location', lambda v: isinstance(v, str), 'a string'),
     ('serial_number', lambda v: isinstance(v, str), 'a string'),
     ('source', lambda v: isinstance(v, str), 'a string'),
@@ -161,6 +188,29 @@ def validate(params):
     if params.pack_termination_current_a >= params.charge_current_a:
         _fail('termination_current_a', params.termination_current_a,
               'below charge_current_a (%g A)' % params.charge_current_a)
+    if params.overheat_temperature_c > params.protection_temperature_c:
+        _fail('overheat_temperature_c', params.overheat_temperature_c,
+              'at most protection_temperature_c (%g degC)' % params.protection_temperature_c)
+    _validate_currents(params)
+
+
+def _validate_currents(params):
+    """The configured loads and charger stay within the cells' datasheet currents."""
+    max_charge_a = params.cell_max_charge_current_a * params.cells_parallel
+    if params.charge_current_a > max_charge_a:
+        _fail('charge_current_a', params.charge_current_a,
+              'at most %g A (cell_max_charge_current_a x cells_parallel)' % max_charge_a)
+    max_load_a = params.cell_max_discharge_current_a * params.cells_parallel
+    if params.load_current_a > max_load_a:
+        _fail('load_current_a', params.load_current_a,
+              'at most %g A (cell_max_discharge_current_a x cells_parallel)' % max_load_a)
+    # The base load must still be deliverable at the cut-off voltage.
+    cut_off_v = params.cell_cutoff_voltage_v * params.cells_series
+    max_power_w = (max_load_a - params.load_current_a) * cut_off_v
+    if params.load_power_w > max_power_w:
+        _fail('load_power_w', params.load_power_w,
+              'at most %g W (what the pack delivers at %g V beside load_current_a within '
+              'cell_max_discharge_current_a)' % (max_power_w, cut_off_v))
 
 
 def _validate_ocv_table(params):
@@ -196,6 +246,9 @@ def from_mapping(values, base=None, origin='parameters'):
     """
     if not isinstance(values, dict):
         raise ParameterError('%s: expected a mapping of parameter names, got %r' % (origin, values))
+    not_names = [key for key in values if not isinstance(key, str)]
+    if not_names:
+        raise ParameterError('%s: parameter names must be text, got %r' % (origin, not_names[0]))
     unknown = sorted(set(values) - set(PARAMETER_NAMES) - {'preset'})
     if unknown:
         raise ParameterError('%s: unknown parameter %s (known: %s)'
@@ -221,25 +274,35 @@ def from_mapping(values, base=None, origin='parameters'):
 
 
 def load_yaml(path):
-    """Load parameters from a YAML file: an optional ``preset`` plus overrides."""
+    """Load parameters from a YAML file: a ``preset`` (default DEFAULT_PRESET) plus overrides.
+
+    An empty file is refused: it more likely lost its content than meant the default.
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding='utf-8')
     except OSError as error:
         raise ParameterError('cannot read battery config %s: %s' % (path, error.strerror)) from None
+    except UnicodeDecodeError as error:
+        raise ParameterError('battery config %s is not UTF-8 text (byte %d)' % (path, error.start)) from None
     try:
         values = yaml.safe_load(text)
     except yaml.YAMLError as error:
-        raise ParameterError('%s is not valid YAML: %s' % (path, error)) from None
-    return from_mapping(values if values is not None else {}, origin=str(path))
+        raise ParameterError('%s is not valid YAML: %s' % (path, ' '.join(str(error).split()))) from None
+    if values is None:
+        raise ParameterError('battery config %s is empty: name a preset (e.g. "preset: %s") and any overrides'
+                             % (path, DEFAULT_PRESET))
+    if isinstance(values, dict) and 'preset' not in values:
+        values = dict(values, preset=DEFAULT_PRESET)
+    return from_mapping(values, origin=str(path))
 
 
 def preset_directory():
     """The folder of preset YAML files, in the source/devel tree or the install space."""
     here = Path(__file__).resolve()
-    candidates = [here.parents[2] / 'config' / 'presets']
-    if len(here.parents) > 4:  # <prefix>/lib/python3/dist-packages/battery_simulator/
-        candidates.append(here.parents[4] / 'share' / 'battery_simulator' / 'config' / 'presets')
+    candidates = [here.parents[3] / 'config' / 'presets']
+    if len(here.parents) > 5:  # <prefix>/lib/python3/dist-packages/battery_simulator/core/
+        candidates.append(here.parents[5] / 'share' / 'battery_simulator' / 'config' / 'presets')
     for candidate in candidates:
         if candidate.is_dir():
             return candidate

@@ -8,13 +8,19 @@ Time is an argument (``step(dt_s)``), so runs are deterministic. Within a step
 the current is held constant and the RC voltage is updated exactly, so results
 do not depend on the step size. Currents are positive when charging, negative
 when discharging (the sensor_msgs/BatteryState convention).
+
+The pack protection acts as a real BMS does, and within the step: the load is
+cut off at the cut-off voltage, above the cell's maximum continuous current,
+when a constant-power load cannot be delivered (no solution of P = V * I), and
+above the protection temperature; the charger is cut off above the maximum
+charge current and the protection temperature.
 """
 import enum
 import math
 from bisect import bisect_right
 from collections import namedtuple
 
-from battery_simulator.parameters import BatteryParameters
+from battery_simulator.core.parameters import BatteryParameters
 
 _KELVIN = 273.15
 
@@ -37,6 +43,21 @@ class Status(enum.Enum):
     EMPTY = 'empty'  # cut-off reached: the load is disconnected
 
 
+class CutOff(enum.Enum):
+    """Why the pack protection has disconnected the load or the charger."""
+
+    UNDER_VOLTAGE = 'cut-off voltage reached'
+    OVER_CURRENT = 'over-current'
+    POWER_LIMIT = 'constant-power load beyond what the pack can deliver'
+    OVER_TEMPERATURE = 'over-temperature'
+
+
+#: Protection trips that clear by themselves once their cause is gone.
+_SELF_CLEARING = (CutOff.OVER_CURRENT, CutOff.POWER_LIMIT, CutOff.OVER_TEMPERATURE)
+#: The pack cools this far below the protection temperature before reconnecting, K.
+PROTECTION_HYSTERESIS_K = 5.0
+
+
 class Health(enum.Enum):
     """Mapped to BatteryState.power_supply_health."""
 
@@ -49,7 +70,7 @@ class Health(enum.Enum):
 Snapshot = namedtuple('Snapshot', (
     'percentage', 'voltage_v', 'current_a', 'temperature_c', 'charge_ah',
     'capacity_ah', 'design_capacity_ah', 'cell_voltage_v', 'mode', 'status',
-    'health', 'cycle_count', 'state_of_health'))
+    'health', 'cycle_count', 'state_of_health', 'cut_off', 'time_remaining_s', 'charger_fault'))
 
 
 class OcvCurve:
@@ -87,24 +108,26 @@ class BatteryModel:
 
     def __init__(self, params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
         params = params if params is not None else BatteryParameters()
-        if not (isinstance(state_of_charge, (int, float)) and 0.0 <= state_of_charge <= 1.0):
-            raise ValueError('state_of_charge = %r is invalid: must be in [0, 1]' % (state_of_charge,))
+        _check_fraction('state_of_charge', state_of_charge)
         self.params = params
         self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)
         self.mode = mode
         self.state_of_charge = float(state_of_charge)
         self.rc_voltage_v = 0.0       # voltage across the RC pair, per cell
         self.cell_current_a = 0.0     # the current held over the last step
-        self.temperature_c = (params.ambient_temperature_c if params.initial_temperature_c is None
-                              else params.initial_temperature_c)
-        self.discharged_ah = 0.0      # per cell, for ageing
+        self.temperature_c = self.initial_temperature_c
+        self.discharged_ah = 0.0      # per cell, since start (for the cycle count)
+        self.state_of_health = max(0.0, 1.0 - params.capacity_fade_per_cycle * params.initial_cycle_count)
         self.status = Status.NOT_CHARGING
+        self.cut_off = None           # a CutOff while the protection holds the pack disconnected
+        self.charger_fault = False    # charger connected but no current flows
         self._extra_loads = {}
         self._extra_current_a = 0.0
         self._extra_power_w = 0.0
         self._capacity_as = 0.0       # usable capacity per cell, A*s
         self._update_capacity()
         self._settle_status()
+        self.step(0.0)
 
     # -- inputs ---------------------------------------------------------------
 
@@ -113,6 +136,7 @@ class BatteryModel:
         if mode is not self.mode:
             self.mode = mode
             self._settle_status()
+            self.step(0.0)
 
     def set_extra_load(self, name, current_a=0.0, power_w=0.0):
         """Add (or replace) a named load term, e.g. motion; zero removes it."""
@@ -123,6 +147,58 @@ class BatteryModel:
         self._extra_current_a = sum(c for c, _ in self._extra_loads.values())
         self._extra_power_w = sum(p for _, p in self._extra_loads.values())
 
+    def set_charger_fault(self, active):
+        """A charger that is connected but delivers no current (a failed docking)."""
+        self.charger_fault = bool(active)
+        self._settle_status()
+        self.step(0.0)
+
+    def set_state(self, state_of_charge=None, temperature_c=None, state_of_health=None):
+        """Put the pack where a test needs it; None leaves a value as it is.
+
+        Raises ValueError (nothing changed) for a value out of range. The RC
+        pair is left settled, as after a long rest.
+        """
+        if state_of_charge is not None:
+            _check_fraction('state_of_charge', state_of_charge)
+        if temperature_c is not None and not (_is_finite(temperature_c) and -60.0 <= temperature_c <= 150.0):
+            raise ValueError('temperature_c = %r is invalid: must be in [-60, 150] degC' % (temperature_c,))
+        if state_of_health is not None:
+            _check_fraction('state_of_health', state_of_health)
+            if state_of_health <= 0.0:
+                raise ValueError('state_of_health = %r is invalid: must be in (0, 1]' % (state_of_health,))
+        if state_of_charge is not None:
+            self.state_of_charge = float(state_of_charge)
+            self.rc_voltage_v = 0.0
+        if temperature_c is not None:
+            self.temperature_c = float(temperature_c)
+        if state_of_health is not None:
+            self.state_of_health = float(state_of_health)
+            self._update_capacity()
+        self.cut_off = None
+        self._settle_status()
+        self.step(0.0)
+
+    def export_state(self):
+        """The state that survives a restart, as plain numbers (see restore_state)."""
+        return {'state_of_charge': self.state_of_charge, 'rc_voltage_v': self.rc_voltage_v,
+                'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
+                'state_of_health': self.state_of_health}
+
+    def restore_state(self, saved):
+        """Resume from ``export_state()`` output; ValueError (nothing changed) if it does not fit."""
+        if not isinstance(saved, dict) or set(saved) != set(self.export_state()):
+            raise ValueError('saved state %r is invalid: must have exactly %s'
+                             % (saved, ', '.join(sorted(self.export_state()))))
+        if not all(_is_finite(v) for v in saved.values()) or saved['discharged_ah'] < 0 \
+                or abs(saved['rc_voltage_v']) > 1.0:
+            raise ValueError('saved state %r is invalid: values out of range' % (saved,))
+        self.set_state(saved['state_of_charge'], saved['temperature_c'], saved['state_of_health'])
+        self.rc_voltage_v = float(saved['rc_voltage_v'])
+        self.discharged_ah = float(saved['discharged_ah'])
+        self._settle_status()
+        self.step(0.0)
+
     # -- the update -----------------------------------------------------------
 
     def step(self, dt_s, current_a=None, power_w=None):
@@ -131,46 +207,65 @@ class BatteryModel:
         Without arguments the mode decides the current. ``current_a`` (A) or
         ``power_w`` (W) per pack replaces it for this step: positive charges
         (the charger limits it by CV), negative discharges (until cut-off).
+        A step of 0 s settles the current and status without moving time.
         """
-        if dt_s <= 0.0:
+        if not dt_s >= 0.0:
             return
         if current_a is None and power_w is None:
             demand = self._mode_demand_a()
         elif current_a is not None:
             demand = current_a
-        else:
+        elif power_w >= 0.0:
             demand = power_w / self.voltage_v
+        else:
+            demand = self._load_current_a(0.0, -power_w)
+        self._clear_protection(demand)
         start = self._state()
         self._advance(dt_s, demand)
-        if self.status is Status.DISCHARGING and self._below_cut_off():
+        if self.status is Status.DISCHARGING and self._trip() is not None:
             self._cut_off_within(dt_s, demand, start)
+        elif self.status is Status.CHARGING and self._too_hot():
+            self._advance_until(dt_s, demand, start, self._too_hot)
+            self._disconnect(CutOff.OVER_TEMPERATURE, Status.NOT_CHARGING)
 
     def _state(self):
         return (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
-                self.status, self._capacity_as)
+                self.state_of_health, self.status, self._capacity_as)
 
-    def _below_cut_off(self):
-        return (self.state_of_charge <= 0.0
-                or self.voltage_v <= self.params.cell_cutoff_voltage_v * self.params.cells_series)
+    def _restore(self, state):
+        (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
+         self.state_of_health, self.status, self._capacity_as) = state
+
+    def _trip(self):
+        """The CutOff the pack protection would act on now, or None."""
+        if self.state_of_charge <= 0.0 \
+                or self.voltage_v <= self.params.cell_cutoff_voltage_v * self.params.cells_series:
+            return CutOff.UNDER_VOLTAGE
+        if self._too_hot():
+            return CutOff.OVER_TEMPERATURE
+        return None
+
+    def _too_hot(self):
+        return self.temperature_c >= self.params.protection_temperature_c
 
     def _cut_off_within(self, dt_s, demand, start):
-        """Redo the step up to the moment the cut-off is reached (bisection), then disconnect."""
+        """Redo the step up to the moment the protection acts, then disconnect the load."""
+        self._advance_until(dt_s, demand, start, lambda: self._trip() is not None)
+        self._disconnect(self._trip() or CutOff.UNDER_VOLTAGE, Status.EMPTY)
+
+    def _advance_until(self, dt_s, demand, start, tripped):
+        """Bisect for the first moment within the step at which ``tripped()`` holds; end there."""
         low, high = 0.0, dt_s
-        for _ in range(20):
+        for _ in range(30):
             middle = 0.5 * (low + high)
             self._restore(start)
             self._advance(middle, demand)
-            if self._below_cut_off():
+            if tripped():
                 high = middle
             else:
                 low = middle
         self._restore(start)
         self._advance(high, demand)
-        self._become_empty()
-
-    def _restore(self, state):
-        (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
-         self.status, self._capacity_as) = state
 
     def _advance(self, dt_s, demand):
         """The exact update for ``demand`` A per pack held over ``dt_s``."""
@@ -197,7 +292,10 @@ class BatteryModel:
         self.rc_voltage_v = decay * v1_start + rc_gain * current
         self.cell_current_a = current
         if current < 0.0:
-            self.discharged_ah -= current * dt_s / 3600.0
+            discharged_ah = -current * dt_s / 3600.0
+            self.discharged_ah += discharged_ah
+            self.state_of_health = max(0.0, self.state_of_health
+                                       - p.capacity_fade_per_cycle * discharged_ah / p.cell_capacity_ah)
             self._update_capacity()
         self.state_of_charge = min(max(soc, 0.0), 1.0)
 
@@ -212,22 +310,42 @@ class BatteryModel:
             self._become_full()
 
     def _mode_demand_a(self):
-        p = self.params
         if self.mode is Mode.CHARGE:
-            return p.charge_current_a
+            return self.params.charge_current_a
         if self.mode is Mode.DISCHARGE:
-            power_w = p.load_power_w + self._extra_power_w
-            load_a = p.load_current_a + self._extra_current_a
-            if power_w:
-                load_a += power_w / self.voltage_v
-            return -load_a
+            return self._load_current_a(self.params.load_current_a + self._extra_current_a,
+                                        self.params.load_power_w + self._extra_power_w)
         return 0.0
+
+    def _load_current_a(self, current_a, power_w):
+        """The pack current (negative) that feeds ``current_a`` plus ``power_w`` at the terminals.
+
+        Solves (I - I_c) * (E - R0 * I) = P per cell, E being the OCV plus the
+        RC voltage: the lower root is the stable operating point. With no real
+        root the pack cannot deliver the power: -inf, which the protection cuts off.
+        """
+        p = self.params
+        cell_current = current_a / p.cells_parallel
+        cell_power = power_w / (p.cells_series * p.cells_parallel)
+        if cell_power <= 0.0:
+            return -current_a
+        emf = self.ocv.voltage(self.state_of_charge) + self.rc_voltage_v
+        r0 = p.r0_ohm * self._resistance_scale()
+        discriminant = (emf - r0 * cell_current) ** 2 - 4.0 * r0 * cell_power
+        if discriminant < 0.0 or emf <= 0.0:
+            return -math.inf
+        cell_load = (emf + r0 * cell_current - math.sqrt(discriminant)) / (2.0 * r0)
+        return -cell_load * p.cells_parallel
 
     def _charge_current(self, cell_demand, dt_s, decay, rc_gain, r0):
         """CC up to the charge voltage, then CV with the current tapering."""
-        if self.status is Status.FULL:
+        if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
+            self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
             return 0.0
         p = self.params
+        if cell_demand > p.cell_max_charge_current_a:
+            self._disconnect(CutOff.OVER_CURRENT, Status.NOT_CHARGING)
+            return 0.0
         soc = self.state_of_charge
         soc_gain = p.coulombic_efficiency * dt_s / self._capacity_as
         # The current that ends the step exactly at the charge voltage
@@ -244,8 +362,34 @@ class BatteryModel:
     def _discharge_current(self, cell_demand):
         if self.status is Status.EMPTY:
             return 0.0
+        if math.isinf(cell_demand):
+            self._disconnect(CutOff.POWER_LIMIT, Status.EMPTY)
+            return 0.0
+        if -cell_demand > self.params.cell_max_discharge_current_a:
+            self._disconnect(CutOff.OVER_CURRENT, Status.EMPTY)
+            return 0.0
         self.status = Status.DISCHARGING
         return cell_demand
+
+    def _clear_protection(self, demand):
+        """A BMS reconnects once an over-current or power demand is gone, or the pack has cooled."""
+        if self.cut_off not in _SELF_CLEARING:
+            return
+        cell_demand = demand / self.params.cells_parallel
+        if self.cut_off is CutOff.OVER_TEMPERATURE:
+            cleared = self.temperature_c < self.params.protection_temperature_c - PROTECTION_HYSTERESIS_K
+        elif cell_demand < 0.0:
+            cleared = -cell_demand <= self.params.cell_max_discharge_current_a
+        else:
+            cleared = cell_demand <= self.params.cell_max_charge_current_a
+        if cleared:
+            self.cut_off = None
+            self._settle_status()
+
+    def _disconnect(self, cut_off, status):
+        self.cut_off = cut_off
+        self.status = status
+        self.cell_current_a = 0.0
 
     def _become_full(self):
         # A fuel gauge calls the end of the CV taper 100 %. The terminal
@@ -255,21 +399,22 @@ class BatteryModel:
         self.state_of_charge = 1.0
         self.cell_current_a = 0.0
 
-    def _become_empty(self):
-        self.status = Status.EMPTY
-        self.cell_current_a = 0.0
-
     def _settle_status(self):
         """The status right after a mode change (FULL/EMPTY persist only in their mode)."""
+        self.cell_current_a = 0.0
+        if self.cut_off is CutOff.UNDER_VOLTAGE or self.cut_off is None:
+            self.cut_off = None
+            if self.mode is Mode.DISCHARGE and self._trip() is not None:
+                self.cut_off = self._trip()
         if self.mode is Mode.CHARGE:
-            full = self.state_of_charge >= 1.0
-            self.status = Status.FULL if full else Status.CHARGING
+            if self.charger_fault or self.cut_off is not None:
+                self.status = Status.NOT_CHARGING
+            else:
+                self.status = Status.FULL if self.state_of_charge >= 1.0 else Status.CHARGING
         elif self.mode is Mode.DISCHARGE:
-            self.cell_current_a = 0.0
-            self.status = Status.EMPTY if self._below_cut_off() else Status.DISCHARGING
+            self.status = Status.EMPTY if self.cut_off is not None else Status.DISCHARGING
         else:
             self.status = Status.NOT_CHARGING
-        self.cell_current_a = 0.0
 
     def _resistance_scale(self):
         p = self.params
@@ -284,14 +429,15 @@ class BatteryModel:
     # -- outputs --------------------------------------------------------------
 
     @property
+    def initial_temperature_c(self):
+        """The temperature at start (and after a reset), degC."""
+        p = self.params
+        return p.ambient_temperature_c if p.initial_temperature_c is None else p.initial_temperature_c
+
+    @property
     def cycle_count(self):
         """Equivalent full cycles done, including the initial count."""
         return self.params.initial_cycle_count + self.discharged_ah / self.params.cell_capacity_ah
-
-    @property
-    def state_of_health(self):
-        """Usable capacity over design capacity, 0..1."""
-        return max(0.0, 1.0 - self.params.capacity_fade_per_cycle * self.cycle_count)
 
     @property
     def cell_voltage_v(self):
@@ -314,6 +460,15 @@ class BatteryModel:
     def capacity_ah(self):
         """Pack capacity now (design capacity x state of health), Ah."""
         return self._capacity_as / 3600.0 * self.params.cells_parallel
+
+    @property
+    def time_remaining_s(self):
+        """At the present current: seconds to empty (discharging) or full (charging); None otherwise."""
+        if self.status is Status.DISCHARGING and self.cell_current_a < 0.0:
+            return self.state_of_charge * self._capacity_as / -self.cell_current_a
+        if self.status is Status.CHARGING and self.cell_current_a > 0.0:
+            return (1.0 - self.state_of_charge) * self._capacity_as / self.cell_current_a
+        return None
 
     @property
     def health(self):
@@ -342,4 +497,16 @@ class BatteryModel:
             health=self.health,
             cycle_count=self.cycle_count,
             state_of_health=self.state_of_health,
+            cut_off=self.cut_off,
+            time_remaining_s=self.time_remaining_s,
+            charger_fault=self.charger_fault,
         )
+
+
+def _is_finite(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_fraction(name, value):
+    if not (_is_finite(value) and 0.0 <= value <= 1.0):
+        raise ValueError('%s = %r is invalid: must be in [0, 1]' % (name, value))

@@ -8,7 +8,7 @@ import math
 from collections import namedtuple
 from dataclasses import replace
 
-from battery_simulator.battery_model import BatteryModel, Mode, OcvCurve, Status
+from battery_simulator.core.battery_model import BatteryModel, Mode, OcvCurve, Status
 
 #: One logged sample: time since the start of the file's first step (s), step number,
 #: status (DCH, CHA, PAU), voltage (V), current (A, negative discharging),

@@ -1,0 +1,5 @@
+#!/usr/bin/python3
+"""Relays cmd_vel while the battery can supply the motors (battery_cmd_vel_gate)."""
+from battery_simulator.nodes.cmd_vel_gate import main
+
+main()

@@ -1,0 +1,5 @@
+#!/usr/bin/python3
+"""Plots a battery run (replay CSV or rosbag of battery_status) into a PNG."""
+from battery_simulator.plot import main
+
+main()

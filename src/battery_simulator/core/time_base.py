@@ -1,0 +1,34 @@
+"""Elapsed simulated time from a clock that may start late or jump back (no rospy).
+
+A ROS node under /use_sim_time sees time 0 until the first /clock message,
+then whatever the simulator or rosbag says: 1.7e9 s for a bag recorded
+today, and a jump backwards on every simulator reset or bag loop. The battery
+must age by the time that passes while it runs, not by those jumps.
+"""
+
+
+class TimeBase:
+    """Turns readings of a clock into elapsed seconds, scaled by ``time_scale``.
+
+    The first valid reading is a starting point, not elapsed time. A reading
+    earlier than the previous one restarts the base (nothing elapses for the
+    jump). A reading of 0 under sim time means "no clock yet" and is skipped.
+    """
+
+    def __init__(self, time_scale=1.0, zero_is_unset=False):
+        self.time_scale = time_scale
+        self._zero_is_unset = zero_is_unset
+        self._last = None
+        self.restarts = 0   # backward jumps seen
+
+    def elapsed(self, now):
+        """Scaled seconds since the previous call's reading (0 on a start or a restart)."""
+        if self._zero_is_unset and now <= 0.0:
+            return 0.0
+        last, self._last = self._last, now
+        if last is None:
+            return 0.0
+        if now < last:
+            self.restarts += 1
+            return 0.0
+        return (now - last) * self.time_scale

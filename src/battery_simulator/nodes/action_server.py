@@ -1,0 +1,504 @@
+"""The battery_simulator action server node (BatterySimServer in sim.launch).
+
+It owns the one battery model. A worker thread steps it at ``~update_rate``,
+following the mode parameter ``MyRobot/BatteryStatus`` at every step, takes
+and ends the goals of the action ``battery_simulator`` (Full when charging,
+Empty when discharging, preempted, or aborted when the mode turns against
+them), and publishes the model's state for battery_state_pub. The charger
+contact, the motion and payload loads, the test controls and the faults all
+act on the model through the same lock.
+
+:ROS Parameters:
+  - ``~config`` (str): YAML battery config: a ``preset`` plus overrides
+    (default: the package's config/battery.yaml)
+  - ``~time_scale`` (float > 0): simulated seconds per wall second (default 22;
+    ignored under /use_sim_time, where ROS time drives the model); live-tunable
+  - ``~update_rate`` (float, Hz, 0 < r <= 1000): model updates per second (default 10)
+  - ``~initial_percentage`` (float, 0..100): charge at start (default 100)
+  - ``~charging`` (bool): written to MyRobot/BatteryStatus at start (default false)
+  - ``~state_file`` (str): optional JSON file the state is saved to and resumed from
+  - ``~saved_state`` (dict): written by the node; a respawned node resumes from it
+  - ``MyRobot/BatteryStatus`` (1/true charge, 0/false discharge, unset hold)
+  - dynamic_reconfigure (cfg/BatterySim.cfg): ``time_scale``, ``load_current_a``,
+    ``load_power_w``, ``charge_current_a``, ``ambient_temperature_c``,
+    ``drive_power_w_per_mps``, ``turn_power_w_per_radps``
+
+:Subscribes:
+  - ``cmd_vel`` (geometry_msgs/Twist): motion load while discharging
+  - ``charger_contact`` (std_msgs/Bool): a change connects (true) or disconnects the charger
+
+:Publishes:
+  - ``battery_simulator/state`` (battery_simulator/BatterySimState, latched): after every update
+
+:Services:
+  - ``battery_simulator/set_load`` (battery_simulator/SetLoad): named payload loads
+  - ``battery_simulator/set_charging`` (std_srvs/SetBool): as a charger contact change
+  - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
+  - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
+  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
+"""
+import math
+import random
+import threading
+import time
+from dataclasses import replace
+
+import actionlib
+import rospy
+from dynamic_reconfigure.server import Server as ReconfigureServer
+from geometry_msgs.msg import Twist
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
+
+from battery_simulator.cfg import BatterySimConfig
+from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
+from battery_simulator.core.time_base import TimeBase
+from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
+                                   battery_simResult)
+from battery_simulator.nodes import topics
+from battery_simulator.nodes.battery_state import to_sim_state
+from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
+                                                    is_number)
+from battery_simulator.nodes.saved_state import StateStore
+from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
+                                   SetStateResponse)
+
+FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
+INVALID_LOG_PERIOD_S = 10.0
+OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
+FAULTS = {
+    'charger_fault': 'charger connected but no current flows',
+    'overheat': 'the pack heats past its overheat limit',
+    'sensor_dropout': 'battery_status stops; the model runs on',
+    'measurement_noise': 'Gaussian noise on the reported voltage and current',
+}
+#: the dynamic_reconfigure keys that are battery parameters (time_scale is the node's)
+LIVE_PARAMETERS = ('load_current_a', 'load_power_w', 'charge_current_a', 'ambient_temperature_c',
+                   'drive_power_w_per_mps', 'turn_power_w_per_radps')
+_INVALID = object()
+
+
+def parse_mode(value):
+    """The Mode a MyRobot/BatteryStatus value asks for, or _INVALID. Unset holds (IDLE)."""
+    if value is None:
+        return Mode.IDLE
+    if isinstance(value, bool):
+        return Mode.CHARGE if value else Mode.DISCHARGE
+    if isinstance(value, (int, float)) and value in (0, 1):
+        return Mode.CHARGE if value == 1 else Mode.DISCHARGE
+    return _INVALID
+
+
+def read_settings():
+    """All start-up parameters, checked; raises StartupError."""
+    config = checked_param('~config', str(default_config_path()),
+                           lambda v: isinstance(v, str) and v != '', 'a path to a YAML file')
+    try:
+        params = load_yaml(config)
+    except ParameterError as error:
+        raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), config, error)) \
+            from None
+    return dict(
+        params=params,
+        time_scale=checked_param('~time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0'),
+        update_rate=checked_param('~update_rate', 10.0, lambda v: is_number(v) and 0 < v <= 1000,
+                                  'a number in (0, 1000] Hz'),
+        initial_percentage=checked_param('~initial_percentage', 100.0,
+                                         lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]'),
+        charging=checked_param('~charging', False, lambda v: v in (True, False, 0, 1),
+                               'true or false (or 1 / 0)'),
+        state_file=checked_param('~state_file', '', lambda v: isinstance(v, str), 'a file path (or empty)'),
+    )
+
+
+class ActiveGoal:
+    """The goal being pursued: the mode it asked for and where it ends."""
+
+    def __init__(self, charge):
+        self.mode = Mode.CHARGE if charge else Mode.DISCHARGE
+        self.target = Status.FULL if charge else Status.EMPTY
+        self.done_text = 'Full' if charge else 'Empty'
+
+
+class BatterySimServer:
+    """The action server, the worker thread that steps the model, and the controls.
+
+    Lock order: ``self._lock`` (a Condition) guards the model, the mode
+    bookkeeping, the loads and the faults; it is taken last and held briefly.
+    Goals are taken, fed and ended only by the worker thread, never while it
+    holds ``self._lock``, so actionlib's own locks are always taken first.
+    """
+
+    def __init__(self, params, time_scale, update_rate, initial_percentage, charging, state_file=''):
+        self.params = params
+        self._period_s = 1.0 / update_rate
+        self._initial_soc = initial_percentage / 100.0
+        self._sim_time = bool(rospy.get_param('/use_sim_time', False))
+        if self._sim_time:
+            self._clock, self._time_base = rospy.get_time, TimeBase(1.0, zero_is_unset=True)
+        else:
+            self._clock, self._time_base = time.monotonic, TimeBase(time_scale)
+        self._lock = threading.Condition()
+        self._wake = False                 # something changed: update and publish now
+        self._stopping = threading.Event()
+        self._mode_generation = 0          # bumped whenever the mode is set other than by the parameter
+        self._mode_source = 'parameter'    # who set the mode last (for abort texts)
+        self._contact = False              # the charger contact as last reported
+        self._motion = (None, 0.0, 0.0)    # (clock time, |v| m/s, |w| rad/s) of the last cmd_vel
+        self._payloads = {}                # name -> W
+        self._faults = set()
+        self._noise = random.Random()
+        self._goal = None                  # ActiveGoal, worker thread only
+        self._logged = (None, 0.0)         # (whole percent, wall time) of the last progress line
+        self._invalid_logged = (None, 0.0)  # (repr of the bad mode value, wall time) last logged
+        self._store = StateStore(state_file)
+
+        self.model = BatteryModel(params, state_of_charge=self._initial_soc,
+                                  mode=Mode.CHARGE if charging else Mode.DISCHARGE)
+        resumed_from = self._resume()
+        if resumed_from is None:
+            rospy.set_param(topics.MODE_PARAM, 1 if charging else 0)
+        self._follow(self._read_mode_param())
+        self.model.step(0.0)
+        self._resumed_from = resumed_from
+
+        self._state_pub = rospy.Publisher(topics.STATE_TOPIC, BatterySimState, queue_size=1, latch=True)
+        self._server = actionlib.SimpleActionServer(topics.ACTION, battery_simAction, auto_start=False)
+        self._server.register_goal_callback(self._wake_up)
+        self._server.register_preempt_callback(self._wake_up)
+        self._worker = threading.Thread(target=self._run, name='battery_model')
+
+    def _resume(self):
+        """Resume a saved state (after a respawn, or from ~state_file); where from, or None."""
+        saved, where = self._store.load()
+        if saved is None:
+            return None
+        try:
+            self.model.restore_state(saved)
+        except ValueError as error:
+            rospy.logwarn('not resuming from %s: %s; starting at %.1f %%', where, error, 100 * self._initial_soc)
+            return None
+        return where
+
+    def start(self):
+        rospy.core.add_preshutdown_hook(self._on_shutdown)   # before rospy closes the topics
+        self._subscribers = [rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
+                             rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
+        self._services = [
+            rospy.Service(topics.SET_LOAD, SetLoad, self._set_load),
+            rospy.Service(topics.SET_CHARGING, SetBool, self._set_charging),
+            rospy.Service(topics.SET_STATE, SetState, self._set_state),
+            rospy.Service(topics.RESET, Trigger, self._reset),
+            rospy.Service(topics.INJECT_FAULT, InjectFault, self._inject_fault),
+        ]
+        self._publish_state(self.model.snapshot())
+        self._worker.start()
+        self._server.start()
+        self._reconfigure = self._start_reconfigure()
+        snapshot = self.model.snapshot()
+        if self._resumed_from:
+            rospy.loginfo('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',
+                          self._resumed_from, snapshot.percentage, snapshot.cycle_count,
+                          100.0 * snapshot.state_of_health)
+        rospy.loginfo('battery_simulator ready: %s, %.1f %%, %s, %s', self.params.name, snapshot.percentage,
+                      snapshot.status.value, 'ROS time' if self._sim_time else 'time x%g' % self._time_base.time_scale)
+
+    def _start_reconfigure(self):
+        # Seed the server with the values in force, so that it does not impose the .cfg defaults.
+        rospy.set_param('~time_scale', self._time_base.time_scale)
+        for name in LIVE_PARAMETERS:
+            rospy.set_param('~' + name, getattr(self.params, name))
+        return ReconfigureServer(BatterySimConfig, self._reconfigure_callback)
+
+    def _on_shutdown(self, reason=None):
+        """Stop the worker: it preempts the active goal and saves the state."""
+        self._stopping.set()
+        self._wake_up()
+        if self._worker.is_alive() and threading.current_thread() is not self._worker:
+            self._worker.join(timeout=2.0)
+
+    def _wake_up(self):
+        with self._lock:
+            self._wake = True
+            self._lock.notify_all()
+
+    # -- the worker thread ----------------------------------------------------
+
+    def _run(self):
+        next_update = time.monotonic()
+        while not self._stopping.is_set():
+            with self._lock:
+                self._lock.wait_for(lambda: self._wake or self._stopping.is_set(),
+                                    max(0.0, next_update - time.monotonic()))
+                self._wake = False
+            if self._stopping.is_set():
+                break
+            self._take_goals()
+            self._update()
+            now = time.monotonic()
+            if now >= next_update:
+                next_update = max(next_update + self._period_s, now)
+        self._preempt('server shutting down')
+        with self._lock:
+            state = self.model.export_state()
+        self._store.save_now(state)
+
+    def _update(self):
+        """One model update: follow the mode, apply loads and faults, step, publish, check the goal."""
+        with self._lock:
+            generation = self._mode_generation
+        raw_mode = self._read_mode_param()
+        now = self._clock()
+        with self._lock:
+            restarts = self._time_base.restarts
+            dt_s = self._time_base.elapsed(now)
+            if generation == self._mode_generation:  # else the mode was set meanwhile, and stands
+                self._follow(raw_mode)
+            motion_w = self._motion_power_w(now)
+            self.model.set_extra_load('motion', power_w=motion_w)
+            if 'overheat' in self._faults:
+                self.model.temperature_c = max(self.model.temperature_c,
+                                               self.params.overheat_temperature_c + OVERHEAT_MARGIN_K)
+            self.model.step(dt_s)
+            snapshot = self.model.snapshot()
+            state = self.model.export_state()
+            load_w = motion_w + sum(self._payloads.values())
+        if self._time_base.restarts != restarts:
+            rospy.logwarn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
+        self._publish_state(snapshot, load_w)
+        self._store.maybe_save(state)
+        self._log_progress(snapshot)
+        self._check_goal(snapshot)
+
+    def _motion_power_w(self, now):
+        stamp, speed, turn = self._motion
+        if stamp is None or not 0.0 <= now - stamp <= self.params.cmd_vel_timeout_s:
+            return 0.0
+        return self.params.drive_power_w_per_mps * speed + self.params.turn_power_w_per_radps * turn
+
+    def _read_mode_param(self):
+        try:
+            return rospy.get_param(topics.MODE_PARAM, None)
+        except (ConnectionError, OSError) as error:  # master gone: keep the mode
+            rospy.logwarn_throttle(10.0, 'cannot read %s: %s', topics.MODE_PARAM, error)
+            return _INVALID
+
+    def _follow(self, raw_mode):
+        mode = parse_mode(raw_mode)
+        if mode is _INVALID:
+            if raw_mode is not _INVALID:
+                self._log_invalid_mode(raw_mode)
+            return
+        self._invalid_logged = (None, 0.0)
+        if mode is not self.model.mode:
+            self._mode_source = 'parameter'
+            self.model.set_mode(mode)
+
+    def _set_mode(self, mode, source):
+        """Set the mode and the parameter together (a goal, the charger contact, set_charging)."""
+        with self._lock:
+            self._mode_generation += 1
+            rospy.set_param(topics.MODE_PARAM, 1 if mode is Mode.CHARGE else 0)
+            self._mode_source = source
+            self.model.set_mode(mode)
+            self._wake = True
+            self._lock.notify_all()
+
+    def _log_invalid_mode(self, raw_mode):
+        """An error at once for each new bad value, then every INVALID_LOG_PERIOD_S while it stays."""
+        value, logged_at = self._invalid_logged
+        now = time.monotonic()
+        if value == repr(raw_mode) and now - logged_at < INVALID_LOG_PERIOD_S:
+            return
+        self._invalid_logged = (repr(raw_mode), now)
+        rospy.logerr('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
+                     '(hold); keeping %s', rospy.resolve_name(topics.MODE_PARAM), raw_mode, self.model.mode.value)
+
+    def _publish_state(self, snapshot, load_w=0.0):
+        with self._lock:
+            faults = set(self._faults)
+        msg = to_sim_state(snapshot, self.params, stamp=rospy.Time.now(), load_power_w=load_w, faults=faults)
+        if 'measurement_noise' in faults:
+            battery = msg.battery
+            battery.voltage += self._noise.gauss(0.0, self.params.voltage_noise_v)
+            battery.current += self._noise.gauss(0.0, self.params.current_noise_a)
+            battery.cell_voltage = [battery.voltage / len(battery.cell_voltage)] * len(battery.cell_voltage)
+        self._state_pub.publish(msg)
+
+    def _log_progress(self, snapshot):
+        whole = int(snapshot.percentage)
+        logged_percent, logged_at = self._logged
+        now = time.monotonic()
+        if whole != logged_percent and now - logged_at >= 1.0:
+            self._logged = (whole, now)
+            rospy.loginfo('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
+                          whole, snapshot.voltage_v, snapshot.current_a)
+
+    # -- goals (worker thread) ---------------------------------------------------
+
+    def _take_goals(self):
+        """Accept a new goal (preempting the active one) or act on a cancel."""
+        if self._server.is_new_goal_available():
+            self._preempt('a new goal')
+            goal = self._server.accept_new_goal()
+            if goal is None:
+                return
+            self._goal = ActiveGoal(goal.charge_state)
+            self._set_mode(self._goal.mode, 'goal')
+            snapshot = self._snapshot_now()
+            rospy.loginfo('goal: %s from %.1f %%', self._goal.mode.value, snapshot.percentage)
+            if self._server.is_preempt_requested():   # cancelled before it was accepted
+                self._preempt('cancel')
+            else:
+                self._check_goal(snapshot)
+        elif self._goal is not None and self._server.is_preempt_requested():
+            self._preempt('cancel')
+
+    def _snapshot_now(self):
+        with self._lock:
+            self.model.step(0.0)
+            return self.model.snapshot()
+
+    def _check_goal(self, snapshot):
+        """Feedback for the active goal, and its end if it has reached one."""
+        goal = self._goal
+        if goal is None:
+            return
+        self._server.publish_feedback(battery_simFeedback(battery_percentage=snapshot.percentage))
+        if snapshot.status is goal.target and snapshot.cut_off in (None, CutOff.UNDER_VOLTAGE):
+            self._finish(self._server.set_succeeded, goal.done_text, rospy.loginfo)
+        elif snapshot.mode is not goal.mode:
+            self._finish(self._server.set_aborted, 'Aborted at %.1f %%: %s was changed to %s (%s) while %s' % (
+                snapshot.percentage, rospy.resolve_name(topics.MODE_PARAM), snapshot.mode.value,
+                self._mode_source, goal.mode.value), rospy.logwarn)
+        elif snapshot.status is Status.EMPTY:
+            self._finish(self._server.set_aborted, 'Aborted at %.1f %%: the pack protection cut the load off (%s)'
+                         % (snapshot.percentage, snapshot.cut_off.value), rospy.logwarn)
+
+    def _preempt(self, reason):
+        """Preempt the active goal, if any, saying why and at what level."""
+        if self._goal is not None:
+            snapshot = self._snapshot_now()
+            self._finish(self._server.set_preempted, 'Preempted at %.1f %% (%s, %s)' % (
+                snapshot.percentage, reason, snapshot.status.value), rospy.loginfo)
+
+    def _finish(self, set_state, text, log):
+        self._goal = None
+        set_state(battery_simResult(battery_status=text), text)
+        log('goal ended: %s', text)
+
+    # -- inputs (subscriber and service threads) ---------------------------------
+
+    def _on_cmd_vel(self, twist):
+        speed, turn = abs(twist.linear.x), abs(twist.angular.z)
+        if not (math.isfinite(speed) and math.isfinite(turn)):
+            rospy.logerr_throttle(10.0, 'ignoring a cmd_vel with a non-finite speed (%r, %r)', speed, turn)
+            return
+        with self._lock:
+            self._motion = (self._clock(), speed, turn)
+
+    def _on_contact(self, msg):
+        self._change_contact(bool(msg.data), 'charger contact')
+
+    def _set_charging(self, request):
+        self._change_contact(bool(request.data), 'set_charging')
+        return SetBoolResponse(success=True, message='charger %s' % ('connected' if request.data else 'disconnected'))
+
+    def _change_contact(self, connected, source):
+        """Only a change acts: connected -> charge, disconnected -> discharge."""
+        with self._lock:
+            changed, self._contact = connected != self._contact, connected
+        if changed:
+            rospy.loginfo('%s: charger %s', source, 'connected' if connected else 'disconnected')
+            self._set_mode(Mode.CHARGE if connected else Mode.DISCHARGE, source)
+
+    def _set_load(self, request):
+        name, power_w = request.name.strip(), request.power_w
+        if not name:
+            return SetLoadResponse(success=False, message='name must not be empty')
+        if not (math.isfinite(power_w) and power_w >= 0.0):
+            return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number >= 0 W'
+                                   % power_w)
+        with self._lock:
+            if power_w > 0.0:
+                self._payloads[name] = power_w
+            else:
+                self._payloads.pop(name, None)
+            self.model.set_extra_load('payload', power_w=sum(self._payloads.values()))
+            total = sum(self._payloads.values())
+            self._wake = True
+            self._lock.notify_all()
+        return SetLoadResponse(success=True, message='%s: %g W; payload loads now %g W' % (name, power_w, total))
+
+    def _set_state(self, request):
+        def given(value):
+            return None if math.isnan(value) else value
+        percentage = given(request.percentage)
+        try:
+            with self._lock:
+                self.model.set_state(None if percentage is None else percentage / 100.0,
+                                     given(request.temperature_c), given(request.state_of_health))
+                self._wake = True
+                self._lock.notify_all()
+        except ValueError as error:
+            return SetStateResponse(success=False, message=str(error).replace('state_of_charge', 'percentage/100'))
+        return SetStateResponse(success=True, message='state set')
+
+    def _reset(self, request):
+        with self._lock:
+            self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
+                                 max(1e-9, 1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
+            self.model.discharged_ah = 0.0
+            self._wake = True
+            self._lock.notify_all()
+        return TriggerResponse(success=True, message='reset to %.1f %%, mode kept' % (100.0 * self._initial_soc))
+
+    def _inject_fault(self, request):
+        if request.fault not in FAULTS:
+            return InjectFaultResponse(success=False, message='unknown fault %r; known faults: %s' % (
+                request.fault, '; '.join('%s (%s)' % item for item in sorted(FAULTS.items()))))
+        with self._lock:
+            if request.active:
+                self._faults.add(request.fault)
+            else:
+                self._faults.discard(request.fault)
+            if request.fault == 'charger_fault':
+                self.model.set_charger_fault(request.active)
+            self._wake = True
+            self._lock.notify_all()
+        rospy.logwarn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
+        return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
+                                                                      else 'cleared'))
+
+    def _reconfigure_callback(self, config, level):
+        """Apply live changes, validated like the start-up values; a refused change keeps the old value."""
+        time_scale = config['time_scale']
+        with self._lock:
+            if not (is_number(time_scale) and time_scale > 0):
+                rospy.logerr('time_scale = %r is invalid: must be a number > 0; keeping %g',
+                             time_scale, self._time_base.time_scale)
+                config['time_scale'] = self._time_base.time_scale
+            elif not self._sim_time:
+                self._time_base.time_scale = time_scale
+            try:
+                params = replace(self.params, **{name: float(config[name]) for name in LIVE_PARAMETERS})
+            except ParameterError as error:
+                rospy.logerr('dynamic_reconfigure: %s; keeping the previous values', error)
+                params = self.params
+            self.params = self.model.params = params
+            self._wake = True
+            self._lock.notify_all()
+        for name in LIVE_PARAMETERS:
+            config[name] = getattr(params, name)
+        return config
+
+
+def main():
+    rospy.init_node('BatterySimServer')
+    try:
+        settings = read_settings()
+    except StartupError as error:
+        exit_on_startup_error(error)
+    BatterySimServer(**settings).start()
+    rospy.spin()

@@ -1,0 +1,120 @@
+"""A kinematic differential-drive base for the demo (fake_base): no physics simulator needed.
+
+It integrates the latest ``cmd_vel`` (held for ``~cmd_vel_timeout`` s, then
+zero) into a pose, and publishes it as ``odom`` and as the tf odom ->
+base_footprint, at ``~rate`` Hz.
+
+:ROS Parameters:
+  - ``~rate`` (float, Hz, 0 < r <= 1000): integration and publication rate (default 20)
+  - ``~x``, ``~y``, ``~yaw`` (float, m, m, rad): the start pose (default 0, 0, 0)
+  - ``~cmd_vel_timeout`` (float, s > 0): a command older than this counts as stop (default 0.5)
+  - ``~odom_frame``, ``~base_frame`` (str): frame ids (default odom, base_footprint)
+
+:Subscribes:
+  - ``cmd_vel`` (geometry_msgs/Twist)
+:Publishes:
+  - ``odom`` (nav_msgs/Odometry), tf ``odom`` -> ``base_footprint``
+"""
+import math
+import threading
+import time
+
+import rospy
+import tf2_ros
+from geometry_msgs.msg import Quaternion, TransformStamped, Twist
+from nav_msgs.msg import Odometry
+
+from battery_simulator.nodes import topics
+from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
+                                                    is_number)
+
+
+def read_settings():
+    return dict(
+        rate=checked_param('~rate', 20.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz'),
+        x=checked_param('~x', 0.0, is_number, 'a number (m)'),
+        y=checked_param('~y', 0.0, is_number, 'a number (m)'),
+        yaw=checked_param('~yaw', 0.0, is_number, 'a number (rad)'),
+        cmd_vel_timeout=checked_param('~cmd_vel_timeout', 0.5, lambda v: is_number(v) and v > 0, 'a number > 0 s'),
+        odom_frame=checked_param('~odom_frame', 'odom', lambda v: isinstance(v, str) and v, 'a frame id'),
+        base_frame=checked_param('~base_frame', 'base_footprint', lambda v: isinstance(v, str) and v, 'a frame id'),
+    )
+
+
+def integrate(x, y, yaw, linear, angular, dt_s):
+    """The pose after driving at (linear, angular) for dt_s (exact arc for a unicycle)."""
+    if abs(angular) < 1e-9:
+        return x + linear * dt_s * math.cos(yaw), y + linear * dt_s * math.sin(yaw), yaw
+    new_yaw = yaw + angular * dt_s
+    radius = linear / angular
+    return (x + radius * (math.sin(new_yaw) - math.sin(yaw)),
+            y - radius * (math.cos(new_yaw) - math.cos(yaw)),
+            math.atan2(math.sin(new_yaw), math.cos(new_yaw)))
+
+
+def yaw_quaternion(yaw):
+    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
+
+
+class FakeBase:
+    def __init__(self, rate, x, y, yaw, cmd_vel_timeout, odom_frame, base_frame):
+        self._rate_hz = rate
+        self._pose = (x, y, yaw)
+        self._timeout_s = cmd_vel_timeout
+        self._frames = (odom_frame, base_frame)
+        self._lock = threading.Lock()   # guards _command
+        self._command = (0.0, 0.0, -math.inf)   # (linear, angular, wall time received)
+        self._odom_pub = rospy.Publisher(topics.ODOM, Odometry, queue_size=10)
+        self._tf = tf2_ros.TransformBroadcaster()
+        self._sub = rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1)
+
+    def _on_cmd_vel(self, twist):
+        linear, angular = twist.linear.x, twist.angular.z
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            rospy.logerr_throttle(10.0, 'ignoring a non-finite cmd_vel (%r, %r)', linear, angular)
+            return
+        with self._lock:
+            self._command = (linear, angular, time.monotonic())
+
+    def spin(self):
+        rate = rospy.Rate(self._rate_hz, reset=True)
+        last = time.monotonic()
+        while not rospy.is_shutdown():
+            now = time.monotonic()
+            with self._lock:
+                linear, angular, received = self._command
+            if now - received > self._timeout_s:
+                linear = angular = 0.0
+            self._pose = integrate(*self._pose, linear, angular, now - last)
+            last = now
+            self._publish(linear, angular)
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                break
+
+    def _publish(self, linear, angular):
+        x, y, yaw = self._pose
+        stamp = rospy.Time.now()
+        odom = Odometry()
+        odom.header.stamp, odom.header.frame_id = stamp, self._frames[0]
+        odom.child_frame_id = self._frames[1]
+        odom.pose.pose.position.x, odom.pose.pose.position.y = x, y
+        odom.pose.pose.orientation = yaw_quaternion(yaw)
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = linear, angular
+        self._odom_pub.publish(odom)
+        transform = TransformStamped()
+        transform.header.stamp, transform.header.frame_id = stamp, self._frames[0]
+        transform.child_frame_id = self._frames[1]
+        transform.transform.translation.x, transform.transform.translation.y = x, y
+        transform.transform.rotation = yaw_quaternion(yaw)
+        self._tf.sendTransform(transform)
+
+
+def main():
+    rospy.init_node('fake_base')
+    try:
+        settings = read_settings()
+    except StartupError as error:
+        exit_on_startup_error(error)
+    FakeBase(**settings).spin()

@@ -1,0 +1,185 @@
+"""The demo behaviour (patrol_and_dock): patrol, dock when low, charge, undock, patrol again.
+
+It patrols a loop of waypoints. When ``battery_low`` turns true it drives to
+the dock and stops on it; on charger contact it sends a charge goal to the
+``battery_simulator`` action (the textbook interface) and waits for "Full";
+then it backs off the dock and patrols again. Each phase change is logged with
+the battery level and published on ``patrol_and_dock/phase``.
+
+:ROS Parameters:
+  - ``~waypoints`` (list of [x, y], m): the patrol loop (default a 2 m square beside the dock)
+  - ``~dock_x``, ``~dock_y`` (float, m): the dock (default 0, 0), as battery_dock_contact has it
+  - ``~speed`` (float, m/s > 0): cruising speed (default 0.3)
+  - ``~undock_distance`` (float, m > 0): how far to back off the dock (default 0.6)
+
+:Subscribes:
+  - ``odom`` (nav_msgs/Odometry), ``battery_low`` and ``charger_contact`` (std_msgs/Bool),
+    ``battery_status`` (sensor_msgs/BatteryState, for the level in the log)
+:Publishes:
+  - ``cmd_vel`` (geometry_msgs/Twist), ``patrol_and_dock/phase`` (std_msgs/String, latched)
+:Action client:
+  - ``battery_simulator`` (battery_simulator/battery_simAction)
+"""
+import math
+import threading
+
+import actionlib
+import rospy
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool, String
+
+from battery_simulator.msg import battery_simAction, battery_simGoal
+from battery_simulator.nodes import topics
+from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
+                                                    is_number)
+
+PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
+CONTROL_RATE_HZ = 20.0
+ARRIVED_M = 0.08          # a waypoint counts as reached within this distance
+MAX_TURN_RADPS = 1.5
+DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
+
+
+def _waypoints(value):
+    return (isinstance(value, list) and len(value) >= 1
+            and all(isinstance(p, list) and len(p) == 2 and all(is_number(c) for c in p) for p in value))
+
+
+def read_settings():
+    return dict(
+        waypoints=checked_param('~waypoints', DEFAULT_WAYPOINTS, _waypoints, 'a list of [x, y] points (m)'),
+        dock_x=checked_param('~dock_x', 0.0, is_number, 'a number (m)'),
+        dock_y=checked_param('~dock_y', 0.0, is_number, 'a number (m)'),
+        speed=checked_param('~speed', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m/s'),
+        undock_distance=checked_param('~undock_distance', 0.6, lambda v: is_number(v) and v > 0, 'a number > 0 m'),
+    )
+
+
+def drive_to(x, y, yaw, goal_x, goal_y, speed):
+    """(linear, angular) to drive a unicycle at (x, y, yaw) to the goal: turn first, then go, slowing near it."""
+    distance = math.hypot(goal_x - x, goal_y - y)
+    heading_error = math.atan2(goal_y - y, goal_x - x) - yaw
+    heading_error = math.atan2(math.sin(heading_error), math.cos(heading_error))
+    angular = max(-MAX_TURN_RADPS, min(MAX_TURN_RADPS, 2.5 * heading_error))
+    linear = 0.0 if abs(heading_error) > 0.5 else min(speed, 1.2 * distance) * math.cos(heading_error)
+    return linear, angular
+
+
+class PatrolAndDock:
+    def __init__(self, waypoints, dock_x, dock_y, speed, undock_distance):
+        self._waypoints = [tuple(p) for p in waypoints]
+        self._dock = (dock_x, dock_y)
+        self._speed = speed
+        self._undock_distance = undock_distance
+        self._lock = threading.Lock()   # guards the inputs below
+        self._pose = None
+        self._low = False
+        self._contact = False
+        self._percentage = float('nan')
+        self._phase = None
+        self._next_waypoint = 0
+        self._undock_from = None
+        self._client = actionlib.SimpleActionClient(topics.ACTION, battery_simAction)
+        self._cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=1)
+        self._phase_pub = rospy.Publisher('patrol_and_dock/phase', String, queue_size=1, latch=True)
+        self._subs = [
+            rospy.Subscriber(topics.ODOM, Odometry, self._on_odom, queue_size=1),
+            rospy.Subscriber(topics.BATTERY_LOW, Bool, self._on_low, queue_size=1),
+            rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=1),
+            rospy.Subscriber(topics.BATTERY_STATUS, BatteryState, self._on_battery, queue_size=1),
+        ]
+
+    def _on_odom(self, odom):
+        pose = odom.pose.pose
+        yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
+        with self._lock:
+            self._pose = (pose.position.x, pose.position.y, yaw)
+
+    def _on_low(self, msg):
+        with self._lock:
+            self._low = msg.data
+
+    def _on_contact(self, msg):
+        with self._lock:
+            self._contact = msg.data
+
+    def _on_battery(self, msg):
+        with self._lock:
+            self._percentage = 100.0 * msg.percentage
+
+    def _enter(self, phase):
+        self._phase = phase
+        with self._lock:
+            percentage = self._percentage
+        rospy.loginfo('phase %s at %.1f %%', phase, percentage)
+        self._phase_pub.publish(String(data=phase))
+
+    def spin(self):
+        if not self._client.wait_for_server(rospy.Duration(30.0)):
+            rospy.logfatal('no action server %s after 30 s', rospy.resolve_name(topics.ACTION))
+            return
+        self._enter(PATROL)
+        rate = rospy.Rate(CONTROL_RATE_HZ, reset=True)
+        while not rospy.is_shutdown():
+            with self._lock:
+                pose, low, contact = self._pose, self._low, self._contact
+            if pose is not None:
+                self._cmd_pub.publish(self._control(pose, low, contact))
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                break
+
+    def _control(self, pose, low, contact):
+        """One control step of the phase machine; the Twist to send."""
+        x, y, yaw = pose
+        if self._phase == PATROL:
+            if low:
+                self._enter(GO_TO_DOCK)
+                return Twist()
+            goal = self._waypoints[self._next_waypoint]
+            if math.hypot(goal[0] - x, goal[1] - y) < ARRIVED_M:
+                self._next_waypoint = (self._next_waypoint + 1) % len(self._waypoints)
+            return self._twist(*drive_to(x, y, yaw, goal[0], goal[1], self._speed))
+        if self._phase == GO_TO_DOCK:
+            if contact:
+                self._client.send_goal(battery_simGoal(charge_state=True))
+                self._enter(CHARGING)
+                return Twist()
+            if math.hypot(self._dock[0] - x, self._dock[1] - y) < ARRIVED_M:
+                return Twist()   # on the dock: stand still until the contact closes
+            return self._twist(*drive_to(x, y, yaw, self._dock[0], self._dock[1], self._speed))
+        if self._phase == CHARGING:
+            state = self._client.get_state()
+            if state == GoalStatus.SUCCEEDED:
+                self._undock_from = (x, y)
+                self._enter(UNDOCK)
+            elif state in (GoalStatus.ABORTED, GoalStatus.PREEMPTED, GoalStatus.REJECTED, GoalStatus.LOST):
+                rospy.logwarn('charge goal ended in state %d (%s): sending it again',
+                              state, self._client.get_goal_status_text())
+                self._client.send_goal(battery_simGoal(charge_state=True))
+            return Twist()
+        # UNDOCK: back straight off the dock, then patrol from the first waypoint
+        if math.hypot(x - self._undock_from[0], y - self._undock_from[1]) >= self._undock_distance:
+            self._next_waypoint = 0
+            self._enter(PATROL)
+            return Twist()
+        return self._twist(-0.5 * self._speed, 0.0)
+
+    @staticmethod
+    def _twist(linear, angular):
+        twist = Twist()
+        twist.linear.x, twist.angular.z = linear, angular
+        return twist
+
+
+def main():
+    rospy.init_node('patrol_and_dock')
+    try:
+        settings = read_settings()
+    except StartupError as error:
+        exit_on_startup_error(error)
+    PatrolAndDock(**settings).spin()

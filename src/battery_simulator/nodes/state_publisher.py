@@ -1,0 +1,211 @@
+"""The BatteryState publisher node (battery_state_pub).
+
+It runs no model: it republishes the server's latest state on
+``battery_status`` at ``~rate`` Hz, stamped with the current ROS time, so the
+topic and the action feedback always describe the same battery. A change of
+power_supply_status is published at once, whatever the rate. It also turns
+the level into ``battery_low`` / ``battery_critical`` events (with hysteresis)
+and publishes REP-107 diagnostics. When the server goes quiet it keeps
+publishing the last state with a stale-data warning, and resumes when the
+server is back.
+
+:ROS Parameters:
+  - ``~rate`` (float, Hz, 0 < r <= 1000): publication rate (default 1.0)
+  - ``~frame_id`` (str): header.frame_id (default "battery")
+  - ``~stale_timeout`` (float, s > 0): warn after this long without an update (default 3.0)
+  - ``~low_percentage`` (float, 0..1): battery_low below this (default 0.20)
+  - ``~critical_percentage`` (float, 0..1, <= low): battery_critical below this (default 0.05)
+  - ``~hysteresis`` (float, 0..1): an event clears above its threshold plus this (default 0.05)
+
+:Subscribes:
+  - ``battery_simulator/state`` (battery_simulator/BatterySimState): from battery_sim_server.py
+:Publishes:
+  - ``battery_status`` (sensor_msgs/BatteryState)
+  - ``battery_low``, ``battery_critical`` (std_msgs/Bool, latched)
+  - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): status "<node>: Battery"
+"""
+import copy
+import math
+import threading
+import time
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticStatus
+from diagnostic_updater import Updater
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+
+from battery_simulator.core.level_alarm import LevelAlarm
+from battery_simulator.msg import BatterySimState
+from battery_simulator.nodes import topics
+from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
+                                                    is_number)
+
+DIAGNOSTIC_PERIOD_S = 0.5   # diagnostics at least this often (wall time: a paused sim clock does not stop them)
+
+
+def _fraction(value):
+    return is_number(value) and 0.0 <= value <= 1.0
+
+
+def read_settings():
+    """All start-up parameters, checked; raises StartupError."""
+    settings = dict(
+        rate=checked_param('~rate', 1.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz'),
+        frame_id=checked_param('~frame_id', 'battery', lambda v: isinstance(v, str), 'a string'),
+        stale_timeout=checked_param('~stale_timeout', 3.0, lambda v: is_number(v) and v > 0, 'a number > 0 s'),
+        low_percentage=checked_param('~low_percentage', 0.20, _fraction, 'a fraction in [0, 1]'),
+        critical_percentage=checked_param('~critical_percentage', 0.05, _fraction, 'a fraction in [0, 1]'),
+        hysteresis=checked_param('~hysteresis', 0.05, _fraction, 'a fraction in [0, 1]'),
+    )
+    if settings['critical_percentage'] > settings['low_percentage']:
+        raise StartupError('parameter %s = %r is invalid: must be at most ~low_percentage (%g)' % (
+            rospy.resolve_name('~critical_percentage'), settings['critical_percentage'],
+            settings['low_percentage']))
+    return settings
+
+
+class BatteryStatePublisher:
+    """Lock: ``self._lock`` guards the latest state, its arrival time and what was last published."""
+
+    def __init__(self, rate, frame_id, stale_timeout, low_percentage, critical_percentage, hysteresis):
+        self._rate_hz = rate
+        self._frame_id = frame_id
+        self._stale_timeout_s = stale_timeout
+        self._lock = threading.Lock()
+        self._latest = None
+        self._received_at = 0.0
+        self._published_status = None
+        self._stale = False
+        self._alarms = {
+            'low': LevelAlarm(low_percentage, hysteresis),
+            'critical': LevelAlarm(critical_percentage, hysteresis),
+        }
+        self._low_percentage, self._critical_percentage = low_percentage, critical_percentage
+        self._pub = rospy.Publisher(topics.BATTERY_STATUS, BatteryState, queue_size=10)
+        self._alarm_pubs = {
+            'low': rospy.Publisher(topics.BATTERY_LOW, Bool, queue_size=1, latch=True),
+            'critical': rospy.Publisher(topics.BATTERY_CRITICAL, Bool, queue_size=1, latch=True),
+        }
+        for publisher in self._alarm_pubs.values():
+            publisher.publish(Bool(data=False))
+        self._updater = Updater()
+        self._updater.setHardwareID('none')
+        self._updater.add('Battery', self._diagnose)
+        self._sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
+
+    def _on_state(self, msg):
+        with self._lock:
+            self._latest, self._received_at = msg, time.monotonic()
+            changed = msg.battery.power_supply_status != self._published_status
+        for name, alarm in self._alarms.items():
+            if alarm.update(msg.battery.percentage):
+                rospy.loginfo('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * msg.battery.percentage)
+                self._alarm_pubs[name].publish(Bool(data=alarm.active))
+        if changed and self._published_status is not None:
+            self.publish_once()   # a status change goes out at once, not at the next tick
+        if msg.battery.serial_number:
+            self._updater.setHardwareID(msg.battery.serial_number)
+
+    def spin(self):
+        threading.Thread(target=self._diagnostics_loop, name='diagnostics', daemon=True).start()
+        rate = rospy.Rate(self._rate_hz, reset=True)   # reset: a /clock jump back restarts the rate
+        while not rospy.is_shutdown():
+            self.publish_once()
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                break
+
+    def _diagnostics_loop(self):
+        while not rospy.is_shutdown():
+            self._updater.force_update()
+            time.sleep(DIAGNOSTIC_PERIOD_S)
+
+    def publish_once(self):
+        with self._lock:
+            latest, received_at = self._latest, self._received_at
+            if latest is None:
+                rospy.loginfo_throttle(10.0, 'waiting for %s', rospy.resolve_name(topics.STATE_TOPIC))
+                return
+            if latest.sensor_dropout:
+                rospy.logwarn_throttle(10.0, 'sensor_dropout fault active: battery_status withheld')
+                self._published_status = None
+                return
+            stale = time.monotonic() - received_at > self._stale_timeout_s
+            if stale:
+                rospy.logwarn_throttle(10.0, 'battery state is stale: no update from the battery_simulator '
+                                       'server for %.0f s; republishing the last known state',
+                                       time.monotonic() - received_at)
+            elif self._stale:
+                rospy.loginfo('battery state updates resumed')
+            self._stale = stale
+            msg = copy.copy(latest.battery)
+            msg.header = copy.copy(latest.battery.header)
+            msg.header.stamp = rospy.Time.now()
+            msg.header.frame_id = self._frame_id
+            self._published_status = msg.power_supply_status
+            self._pub.publish(msg)
+
+    def _diagnose(self, status):
+        """The "Battery" diagnostic status (keys as rqt_robot_monitor and dashboards expect)."""
+        with self._lock:
+            latest, stale = self._latest, time.monotonic() - self._received_at > self._stale_timeout_s
+        if latest is None:
+            status.summary(DiagnosticStatus.WARN, 'no data from the battery_simulator server yet')
+            return status
+        battery = latest.battery
+        level, message = battery_level(latest, stale, self._low_percentage, self._critical_percentage)
+        status.summary(level, message)
+        remaining = latest.time_remaining_s
+        for key, value in (
+                ('Voltage (V)', '%.3f' % battery.voltage),
+                ('Current (A)', '%.3f' % battery.current),
+                ('Charge (Ah)', '%.3f' % battery.charge),
+                ('Capacity (Ah)', '%.3f' % battery.capacity),
+                ('Design Capacity (Ah)', '%.3f' % battery.design_capacity),
+                ('Percentage (%)', '%.1f' % (100.0 * battery.percentage)),
+                ('Temperature (C)', '%.1f' % battery.temperature),
+                ('Charging State', latest.charging_state),
+                ('Health', HEALTH_TEXT.get(battery.power_supply_health, 'Unknown')),
+                ('Cycle Count', '%.2f' % latest.cycle_count),
+                ('State of Health (%)', '%.1f' % (100.0 * latest.state_of_health)),
+                ('Time Remaining (min)', '' if math.isnan(remaining) else '%.1f' % (remaining / 60.0))):
+            status.add(key, value)
+        return status
+
+
+HEALTH_TEXT = {
+    BatteryState.POWER_SUPPLY_HEALTH_GOOD: 'Good',
+    BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT: 'Overheat',
+    BatteryState.POWER_SUPPLY_HEALTH_COLD: 'Cold',
+    BatteryState.POWER_SUPPLY_HEALTH_DEAD: 'Dead',
+    BatteryState.POWER_SUPPLY_HEALTH_OVERVOLTAGE: 'Overvoltage',
+    BatteryState.POWER_SUPPLY_HEALTH_UNSPEC_FAILURE: 'Failure',
+    BatteryState.POWER_SUPPLY_HEALTH_UNKNOWN: 'Unknown',
+}
+
+
+def battery_level(state, stale, low, critical):
+    """(DiagnosticStatus level, message) for a BatterySimState: ERROR critical or empty, WARN low/unhealthy/stale."""
+    battery = state.battery
+    if state.charging_state == 'Empty':
+        return DiagnosticStatus.ERROR, 'Empty: %s' % (state.cut_off or 'load cut off')
+    if battery.percentage < critical:
+        return DiagnosticStatus.ERROR, 'Critical: %.1f %%' % (100.0 * battery.percentage)
+    if stale:
+        return DiagnosticStatus.WARN, 'Stale: no update from the battery_simulator server'
+    if battery.power_supply_health != BatteryState.POWER_SUPPLY_HEALTH_GOOD:
+        return DiagnosticStatus.WARN, 'Health: %s' % HEALTH_TEXT.get(battery.power_supply_health, 'Unknown')
+    if battery.percentage < low:
+        return DiagnosticStatus.WARN, 'Low: %.1f %%' % (100.0 * battery.percentage)
+    return DiagnosticStatus.OK, '%s, %.1f %%' % (state.charging_state, 100.0 * battery.percentage)
+
+
+def main():
+    rospy.init_node('battery_state_pub')
+    try:
+        settings = read_settings()
+    except StartupError as error:
+        exit_on_startup_error(error)
+    BatteryStatePublisher(**settings).spin()

@@ -1,0 +1,23 @@
+"""Names the nodes share (all relative, so a robot namespace moves them all)."""
+
+#: the mode parameter: 1/true charges, 0/false discharges, unset holds
+MODE_PARAM = 'MyRobot/BatteryStatus'
+#: the action (battery_simulator/battery_simAction)
+ACTION = 'battery_simulator'
+#: the server's state after every update (battery_simulator/BatterySimState)
+STATE_TOPIC = 'battery_simulator/state'
+#: sensor_msgs/BatteryState, published by battery_state_pub
+BATTERY_STATUS = 'battery_status'
+BATTERY_LOW = 'battery_low'
+BATTERY_CRITICAL = 'battery_critical'
+CMD_VEL = 'cmd_vel'
+CHARGER_CONTACT = 'charger_contact'
+ODOM = 'odom'
+SET_LOAD = 'battery_simulator/set_load'
+SET_CHARGING = 'battery_simulator/set_charging'
+SET_STATE = 'battery_simulator/set_state'
+RESET = 'battery_simulator/reset'
+INJECT_FAULT = 'battery_simulator/inject_fault'
+
+#: sensor_msgs/BatteryState.power_supply_status by BatterySimState.charging_state
+CHARGING_STATES = ('Charging', 'Discharging', 'Full', 'Not Charging', 'Empty')
