@@ -2,15 +2,20 @@
 
     rosrun battery_simulator battery_sim_client.py 1|0|charge|discharge [--timeout S]
 
-Exits 0 when the goal succeeds; 1 when it is aborted or preempted; 2 for bad
-arguments (no goal is sent); 3 when the server cannot be reached; 4 on
-timeout; 130 on Ctrl-C (the goal is cancelled first).
+Exits 0 when the goal succeeds; 1 when it is aborted or preempted, or the
+server goes away mid-goal; 2 for bad arguments (no goal is sent); 3 when the
+master or the server cannot be reached; 4 on timeout; 130 on Ctrl-C or
+SIGTERM (the goal is cancelled first). Timeouts are wall-clock seconds.
 """
 import argparse
+import math
+import signal
 import sys
 import threading
+import time
 
 import actionlib
+import rosgraph
 import rospy
 from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import BatteryState
@@ -26,17 +31,33 @@ GOAL_STATES = {GoalStatus.SUCCEEDED: 'succeeded', GoalStatus.ABORTED: 'aborted',
                GoalStatus.PREEMPTED: 'preempted', GoalStatus.REJECTED: 'rejected',
                GoalStatus.RECALLED: 'recalled', GoalStatus.LOST: 'lost'}
 BAR_WIDTH = 30
+WAIT_STEP_S = 0.1
+LOST_SERVER_S = 3.0   # the server's connection gone this long (wall): the goal is lost
+
+
+def _seconds(minimum_exclusive):
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and (value > 0 if minimum_exclusive else value >= 0)):
+            raise argparse.ArgumentTypeError('%s is not a number of seconds %s 0' % (
+                text, '>' if minimum_exclusive else '>='))
+        return value
+    return parse
 
 
 def parse_arguments(argv):
     parser = argparse.ArgumentParser(
-        prog='battery_sim_client.py', description='Charge or discharge the simulated battery.')
+        prog='battery_sim_client.py', description='Charge or discharge the simulated battery. '
+        'Timeouts are wall-clock seconds, also under /use_sim_time.')
     parser.add_argument('goal', choices=sorted(CHOICES), metavar='{1,0,charge,discharge}',
                         help='1 or charge: charge to full; 0 or discharge: discharge to empty')
-    parser.add_argument('--timeout', type=float, default=0.0,
+    parser.add_argument('--timeout', type=_seconds(False), default=0.0,
                         help='give up (and cancel) after this many seconds; 0 waits for ever')
-    parser.add_argument('--server-timeout', type=float, default=10.0,
-                        help='seconds to wait for the action server (default 10)')
+    parser.add_argument('--server-timeout', type=_seconds(True), default=10.0,
+                        help='seconds to wait for the ROS master and the action server (default 10)')
     return parser.parse_args(argv)
 
 
@@ -76,33 +97,106 @@ class ProgressView:
         self._stream.flush()
 
 
+class GoalWatch:
+    """Waits for the goal's end in wall time, and notices a server that has gone away."""
+
+    def __init__(self, client):
+        self._client = client
+        self._done = threading.Event()
+
+    def on_done(self, state, result):
+        self._done.set()
+
+    def wait(self, timeout_s):
+        """'done', 'timeout' or 'lost' (the server's connection has been gone for LOST_SERVER_S)."""
+        deadline = time.monotonic() + timeout_s if timeout_s else math.inf
+        gone_since = None
+        while not self._done.wait(WAIT_STEP_S):
+            now = time.monotonic()
+            if now >= deadline:
+                return 'timeout'
+            if server_connected(self._client):
+                gone_since = None
+            elif gone_since is None:
+                gone_since = now
+            elif now - gone_since >= LOST_SERVER_S:
+                return 'lost'
+            if rospy.is_shutdown():
+                return 'lost'
+        return 'done'
+
+
+def server_connected(client):
+    """Whether the action server that last sent a status is still connected to our goal topic."""
+    status = client.action_client.last_status_msg
+    if status is None:
+        return False
+    return client.action_client.pub_goal.impl.has_connection(status._connection_header['callerid'])
+
+
+def wait_in_wall_time(wait, timeout_s):
+    """Run a blocking ``wait()`` (one that measures ROS time) in a thread; its result, or False after timeout_s."""
+    outcome = []
+    thread = threading.Thread(target=lambda: outcome.append(wait()), daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    return bool(outcome and outcome[0])
+
+
+def wait_for_master(timeout_s):
+    master = rosgraph.Master('/battery_sim_client')
+    deadline = time.monotonic() + timeout_s
+    while not master.is_online():
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.1)
+    return True
+
+
+def _exit(code, text, stream=sys.stderr):
+    print(text, file=stream)
+    sys.exit(code)
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt   # SIGTERM: cancel the goal, as Ctrl-C does
+
+
 def main(argv=None):
     argv = rospy.myargv(sys.argv)[1:] if argv is None else argv
     args = parse_arguments(argv)
     charge = CHOICES[args.goal]
-    rospy.init_node('battery_sim_client', anonymous=True, disable_signals=True)
-    client = actionlib.SimpleActionClient('battery_simulator', battery_simAction)
-    if not client.wait_for_server(rospy.Duration(args.server_timeout)):
-        print('battery_sim_client: no action server %s after %g s'
-              % (rospy.resolve_name('battery_simulator'), args.server_timeout), file=sys.stderr)
-        sys.exit(3)
-    view = ProgressView(sys.stdout)
-    print('%s the battery...' % ('Charging' if charge else 'Discharging'))
-    client.send_goal(battery_simGoal(charge_state=charge), feedback_cb=view.on_feedback)
+    signal.signal(signal.SIGTERM, _terminate)
+    client = None
     try:
-        finished = client.wait_for_result(rospy.Duration(args.timeout))
+        if not wait_for_master(args.server_timeout):
+            _exit(3, 'battery_sim_client: no ROS master at %s after %g s'
+                  % (rosgraph.get_master_uri(), args.server_timeout))
+        rospy.init_node('battery_sim_client', anonymous=True, disable_signals=True)
+        action_client = actionlib.SimpleActionClient('battery_simulator', battery_simAction)
+        if not wait_in_wall_time(action_client.wait_for_server, args.server_timeout):
+            _exit(3, 'battery_sim_client: no action server %s after %g s'
+                  % (rospy.resolve_name('battery_simulator'), args.server_timeout))
+        view = ProgressView(sys.stdout)
+        watch = GoalWatch(action_client)
+        print('%s the battery...' % ('Charging' if charge else 'Discharging'))
+        client = action_client
+        client.send_goal(battery_simGoal(charge_state=charge), done_cb=watch.on_done, feedback_cb=view.on_feedback)
+        outcome = watch.wait(args.timeout)
     except KeyboardInterrupt:
-        client.cancel_goal()
-        client.wait_for_result(rospy.Duration(5.0))
-        print('\ncancelled')
-        sys.exit(130)
+        if client is not None:
+            client.cancel_goal()
+            wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(5.0)), 5.0)
+        _exit(130, '\ncancelled', sys.stdout)
     if sys.stdout.isatty():
         print()
-    if not finished:
+    if outcome == 'timeout':
         client.cancel_goal()
-        client.wait_for_result(rospy.Duration(5.0))
-        print('timed out after %g s; goal cancelled' % args.timeout)
-        sys.exit(4)
+        wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(5.0)), 5.0)
+        _exit(4, 'timed out after %g s; goal cancelled' % args.timeout, sys.stdout)
+    if outcome == 'lost':
+        _exit(1, 'battery_sim_client: lost the action server %s while the goal was running'
+              % rospy.resolve_name('battery_simulator'))
     result = client.get_result()
     state = client.get_state()
     print('Result: %s (%s)' % (result.battery_status if result else '(none)',

@@ -121,6 +121,10 @@ class PatrolAndDock:
         if not self._client.wait_for_server(rospy.Duration(30.0)):
             rospy.logfatal('no action server %s after 30 s', rospy.resolve_name(topics.ACTION))
             return
+        try:
+            rospy.wait_for_message(topics.BATTERY_STATUS, BatteryState, timeout=30.0)
+        except rospy.ROSException:
+            rospy.logwarn('no %s after 30 s: patrolling without the level', rospy.resolve_name(topics.BATTERY_STATUS))
         self._enter(PATROL)
         rate = rospy.Rate(CONTROL_RATE_HZ, reset=True)
         while not rospy.is_shutdown():
