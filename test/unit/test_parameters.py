@@ -85,3 +85,35 @@ def test_bad_yaml_names_the_file_and_key(tmp_path, text, expected):
 def test_missing_yaml_file_is_a_clear_error(tmp_path):
     with pytest.raises(ParameterError, match='cannot read'):
         load_yaml(tmp_path / 'absent.yaml')
+
+
+@pytest.mark.parametrize('content, expected', [
+    (b'', 'is empty: name a preset'),
+    (b'# only a comment\n', 'is empty: name a preset'),
+    (b'1: 2\npreset: lg_hg2_3s1p\n', 'parameter names must be text, got 1'),
+    (b'preset: lg_hg2_3s1p\nlocation: "\xff\xfe"\n', 'is not UTF-8 text'),
+    (b'preset: [unclosed\n', 'is not valid YAML'),
+    (b'- a\n- list\n', 'expected a mapping'),
+])
+def test_bad_config_files_give_one_clear_line(tmp_path, content, expected):
+    path = tmp_path / 'battery.yaml'
+    path.write_bytes(content)
+    with pytest.raises(ParameterError) as error:
+        load_yaml(path)
+    message = str(error.value)
+    assert expected in message and str(path) in message and '\n' not in message, message
+
+
+def test_a_config_without_a_preset_builds_on_the_default_preset(tmp_path):
+    path = tmp_path / 'battery.yaml'
+    path.write_text('load_current_a: 2.0\n')
+    params = load_yaml(path)
+    assert params.name == 'lg_hg2_3s1p' and params.cells_series == 3 and params.load_current_a == 2.0
+
+
+def test_numeric_text_from_roslaunch_is_read_as_a_number():
+    ros_parameters = pytest.importorskip('battery_simulator.nodes.ros_parameters')
+    assert ros_parameters.number_from_text('1e9') == 1e9
+    assert ros_parameters.number_from_text(' 22 ') == 22.0
+    assert ros_parameters.number_from_text('fast') == 'fast'
+    assert ros_parameters.number_from_text(3) == 3

@@ -49,7 +49,7 @@ def test_power_profile_config_file_soc_and_output_file(tmp_path):
 
 @pytest.mark.parametrize('text, line', [
     ('time,current\n0,-1\n10,abc\n', 'line 3'),
-    ('time,current\n0,-1\n0,-2\n', 'line 3'),
+    ('time,current\n0,-1\n5,-2\n4,-1\n', 'line 4'),
     ('stamp,amps\n0,1\n', 'line 1'),
     ('time,current\n0,-1\n5,inf\n', 'line 3'),
 ])
@@ -80,3 +80,61 @@ def test_empty_profile_is_rejected(tmp_path):
 def test_replay_function_yields_a_row_per_time():
     rows = list(replay(preset('lg_hg2_cell'), [(0.0, 'current', -1.0), (60.0, 'current', 0.0)]))
     assert [r[0] for r in rows] == ['0', '60']
+
+
+def test_equal_times_are_a_zero_length_segment_and_a_bom_is_accepted(tmp_path):
+    profile = tmp_path / 'cycler.csv'
+    profile.write_bytes('\ufefftime,current\n0,-1\n10,-1\n10,-2\n20,0\n'.encode('utf-8'))
+    rows = read_profile(profile)
+    assert [r[0] for r in rows] == [0.0, 10.0, 10.0, 20.0]
+    out = list(replay(preset('lg_hg2_cell'), rows))
+    assert [r[0] for r in out] == ['0', '10', '10', '20']
+    assert out[1] == out[2], 'a zero-length segment changes nothing'
+
+
+def test_long_rest_and_long_load_finish_at_once(tmp_path):
+    profile = tmp_path / 'rest.csv'
+    profile.write_text('time,current\n0,0\n1e9,-1\n2e9,0\n')
+    result = subprocess.run([sys.executable, '-m', 'battery_simulator.core.replay', str(profile),
+                             '--max-step', '0.001'], capture_output=True, text=True, timeout=20,
+                            env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    assert rows[1]['soc'] == '1.00000' and rows[2]['status'] == 'EMPTY'
+
+
+@pytest.mark.parametrize('step', ['0', '-1', '0.0001', 'nan', 'inf'])
+def test_max_step_below_the_floor_is_a_usage_error(tmp_path, step):
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,current\n0,-1\n1,-1\n')
+    result = run_cli(profile, '--max-step', step)
+    assert result.returncode == 2 and '--max-step' in result.stderr and 'Traceback' not in result.stderr
+
+
+def test_unknown_preset_and_binary_file_get_one_line(tmp_path):
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,current\n0,-1\n1,-1\n')
+    result = run_cli(profile, '--preset', 'turbo')
+    assert result.returncode == 1 and 'turbo' in result.stderr and 'Traceback' not in result.stderr
+    binary = tmp_path / 'b.csv'
+    binary.write_bytes(bytes(range(256)) * 4)
+    result = run_cli(binary)
+    assert result.returncode == 1 and 'not a UTF-8 text CSV' in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+def test_unwritable_output_is_one_line(tmp_path):
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,current\n0,-1\n1,-1\n')
+    result = run_cli(profile, '-o', tmp_path / 'no' / 'such' / 'dir.csv')
+    assert result.returncode == 1 and 'cannot write' in result.stderr and 'Traceback' not in result.stderr
+
+
+def test_a_closed_pipe_prints_no_traceback(tmp_path):
+    profile = tmp_path / 'long.csv'
+    profile.write_text('time,current\n' + ''.join('%d,-0.1\n' % t for t in range(20000)))
+    result = subprocess.run('%s -m battery_simulator.core.replay %s | head -n 2' % (sys.executable, profile),
+                            shell=True, capture_output=True, text=True, timeout=60,
+                            env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
+    assert len(result.stdout.splitlines()) == 2
+    assert 'Traceback' not in result.stderr and 'BrokenPipe' not in result.stderr, result.stderr

@@ -299,8 +299,12 @@ class BatteryModel:
             self._update_capacity()
         self.state_of_charge = min(max(soc, 0.0), 1.0)
 
-        # Lumped thermal mass, exact for the heat held over the step.
-        heat_w = current * current * r0 + current * 0.5 * (v1_start + self.rc_voltage_v)
+        # Lumped thermal mass, exact for the heat held over the step; the RC
+        # voltage's exact mean over the step gives its share of the heat.
+        v1_settled = r1 * current
+        fraction = (1.0 - decay) * p.tau1_s / dt_s if dt_s > 0.0 else 1.0
+        v1_mean = v1_settled + (v1_start - v1_settled) * fraction
+        heat_w = current * current * r0 + current * v1_mean
         conductance = p.cell_heat_transfer_w_per_k
         settled_c = p.ambient_temperature_c + heat_w / conductance
         self.temperature_c = settled_c + (self.temperature_c - settled_c) * math.exp(
