@@ -1,32 +1,46 @@
 #!/usr/bin/python3
 """rostest: under /use_sim_time the model follows ROS time (time_scale is
-ignored) and battery_status is stamped with it."""
+ignored), the first /clock value is a starting point (a clock at epoch time
+drains nothing), a clock that jumps back (simulator reset, rosbag --loop)
+restarts the time base without stopping any node, and the client's timeouts
+stay wall-clock seconds."""
+import subprocess
 import threading
+import time
 import unittest
 
 import rospy
 import rostest
+from actionlib_msgs.msg import GoalStatusArray
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState
 
-from rostest_helpers import Recorder, wait_for
+from rostest_helpers import Recorder
 
 SIM_STEP_S = 0.05      # simulated seconds per /clock tick
 TICK_WALL_S = 0.01     # wall seconds between ticks: sim time runs at about 5x
 LOAD_A = 1.5           # the default pack's base load
+EPOCH_S = 1.7e9        # where rosbag play --clock starts
 
 
 class ClockPublisher(threading.Thread):
     def __init__(self):
         super().__init__(daemon=True)
         self.pub = rospy.Publisher('/clock', Clock, queue_size=10)
-        self.now = rospy.Time(1000.0)
+        self.lock = threading.Lock()
+        self.now = rospy.Time(EPOCH_S)
         self.stop = threading.Event()
+
+    def jump_to(self, seconds):
+        with self.lock:
+            self.now = rospy.Time(seconds)
 
     def run(self):
         while not self.stop.wait(TICK_WALL_S):
-            self.now += rospy.Duration(SIM_STEP_S)
-            self.pub.publish(Clock(clock=self.now))
+            with self.lock:
+                self.now += rospy.Duration(SIM_STEP_S)
+                now = self.now
+            self.pub.publish(Clock(clock=now))
 
 
 class TestSimTime(unittest.TestCase):
@@ -37,23 +51,48 @@ class TestSimTime(unittest.TestCase):
         cls.clock = ClockPublisher()
         cls.clock.start()
         cls.status = Recorder('battery_status', BatteryState)
+        cls.action_status = Recorder('battery_simulator/status', GoalStatusArray)
 
     @classmethod
     def tearDownClass(cls):
         cls.clock.stop.set()
 
-    def test_model_and_stamps_follow_ros_time(self):
-        first = self.status.wait_until(lambda m: m.current < 0 and m.header.stamp.to_sec() > 1005.0, 60.0,
-                                       'a discharging state after sim t = 1005 s')
-        self.assertLess(first.header.stamp.to_sec(), 1e6, 'stamped with sim time, not wall time')
-        self.assertLess(abs(first.header.stamp.to_sec() - self.clock.now.to_sec()), 5.0)
+    def test_1_model_and_stamps_follow_ros_time_from_an_epoch_start(self):
+        first = self.status.wait_until(lambda m: m.current < 0 and m.header.stamp.to_sec() > EPOCH_S + 5.0, 60.0,
+                                       'a discharging state after sim t = epoch + 5 s')
+        self.assertGreater(first.percentage, 0.995, 'the time from 0 to the first /clock drained the battery')
+        self.assertLess(abs(first.header.stamp.to_sec() - self.clock.now.to_sec()), 5.0, 'stamped with sim time')
         later = self.status.wait_until(lambda m: m.header.stamp.to_sec() > first.header.stamp.to_sec() + 40.0,
                                        60.0, '40 more simulated seconds')
         elapsed_s = (later.header.stamp - first.header.stamp).to_sec()
-        used_ah = (first.percentage - later.percentage) * first.capacity
-        drawn_a = used_ah * 3600.0 / elapsed_s
+        drawn_a = (first.percentage - later.percentage) * first.capacity * 3600.0 / elapsed_s
         # time_scale 1000 would give about 1500 A here
         self.assertAlmostEqual(drawn_a, LOAD_A, delta=0.3 * LOAD_A)
+
+    def test_2_a_backward_jump_restarts_the_time_base_and_the_topic_flows_on(self):
+        before = self.status.wait_until(lambda m: m.header.stamp.to_sec() > EPOCH_S, 30.0, 'a state at epoch time')
+        self.clock.jump_to(1000.0)
+        after = self.status.wait_until(lambda m: 1005.0 < m.header.stamp.to_sec() < 1e6, 30.0,
+                                       'battery_status after the jump back')
+        elapsed_s = after.header.stamp.to_sec() - 1000.0 + 2.0   # + at most 2 s before the jump
+        used_ah = (before.percentage - after.percentage) * before.capacity
+        self.assertLess(used_ah, LOAD_A * elapsed_s / 3600.0 * 1.5 + 1e-4, 'the jump drained or charged')
+        self.assertGreaterEqual(used_ah, 0.0, 'the jump charged the battery')
+        further = self.status.wait_until(lambda m: m.header.stamp.to_sec() > after.header.stamp.to_sec() + 10.0,
+                                         30.0, 'battery_status still flowing 10 s later')
+        self.assertLess(further.percentage, after.percentage, 'the model runs on after the jump')
+        self.action_status.wait_until(lambda m: m.header.stamp.to_sec() > further.header.stamp.to_sec(), 10.0,
+                                      'the action status still flowing after the jump')
+
+    def test_3_client_timeouts_are_wall_seconds(self):
+        started = time.monotonic()
+        result = subprocess.run(['rosrun', 'battery_simulator', 'battery_sim_client.py', '0', '--timeout', '3',
+                                 '--server-timeout', '10'], capture_output=True, text=True, timeout=60)
+        wall_s = time.monotonic() - started
+        self.assertEqual(result.returncode, 4, 'expected a timeout (4), got %d:\n%s%s'
+                         % (result.returncode, result.stdout, result.stderr))
+        self.assertIn('Discharging the battery', result.stdout, 'the client reached the server')
+        self.assertGreater(wall_s, 2.9, 'a 3 s timeout ended after %.1f s of wall time' % wall_s)
 
 
 if __name__ == '__main__':

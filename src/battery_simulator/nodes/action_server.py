@@ -195,6 +195,7 @@ class BatterySimServer:
         self._publish_state(self.model.snapshot())
         self._worker.start()
         self._server.start()
+        _restart_status_timer_on_clock_jumps(self._server.action_server)
         self._reconfigure = self._start_reconfigure()
         snapshot = self.model.snapshot()
         if self._resumed_from:
@@ -492,6 +493,15 @@ class BatterySimServer:
         for name in LIVE_PARAMETERS:
             config[name] = getattr(params, name)
         return config
+
+
+def _restart_status_timer_on_clock_jumps(action_server):
+    """actionlib's status timer is a rospy.Timer without ``reset``: a /clock jump back
+    kills it, and the action's status stops for good. Run it again with reset."""
+    timer = getattr(action_server, 'status_timer', None)
+    if timer is not None:
+        timer.shutdown()
+        action_server.status_timer = rospy.Timer(timer._period, action_server.publish_status_async, reset=True)
 
 
 def main():
