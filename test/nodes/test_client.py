@@ -1,6 +1,10 @@
 #!/usr/bin/python3
 """rostest: battery_sim_client.py exit codes and its effect on the server."""
+import os
+import select
+import signal
 import subprocess
+import time
 import unittest
 
 import rospy
@@ -74,6 +78,88 @@ class TestClient(unittest.TestCase):
         code, out, err = run_client('1', '--timeout', '0.5')
         self.assertEqual(code, 4, out + err)
         self.assertIn('timed out', out)
+
+
+    def start_server(self, namespace):
+        """A server of our own (no respawn), 80 %, real time: goals run long."""
+        env = dict(os.environ, ROS_NAMESPACE=namespace)
+        server = subprocess.Popen(['rosrun', 'battery_simulator', 'battery_sim_server.py', '__name:=BatterySimServer',
+                                   '_time_scale:=1', '_initial_percentage:=80'], env=env,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        self.addCleanup(self.end, server)
+        return server
+
+    @staticmethod
+    def end(process, sig=signal.SIGINT):
+        if process.poll() is None:
+            os.killpg(process.pid, sig)
+            try:
+                process.wait(timeout=15.0)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+
+    def start_client(self, namespace, *args):
+        env = dict(os.environ, ROS_NAMESPACE=namespace)
+        client = subprocess.Popen(CLIENT + list(args), env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                  text=True, start_new_session=True)
+        self.addCleanup(self.end, client, signal.SIGKILL)
+        return client
+
+    def wait_goal_running(self, logged, namespace):
+        self.log.wait_new(logged, lambda m: m.msg.startswith('goal: charge') and m.name.startswith('/' + namespace),
+                          30.0, 'the goal running on /%s' % namespace)
+
+    def test_sigterm_cancels_the_goal_like_ctrl_c(self):
+        self.start_server('term')
+        logged = self.log.count()
+        client = self.start_client('term', '1')
+        self.wait_goal_running(logged, 'term')
+        client.send_signal(signal.SIGTERM)
+        out, err = client.communicate(timeout=30.0)
+        self.assertEqual(client.returncode, 130, out + err)
+        self.assertNotIn('Traceback', err)
+        self.log.wait_new(logged, lambda m: 'Preempted' in m.msg and 'cancel' in m.msg, 10.0,
+                          'the server preempting the cancelled goal')
+
+    def test_a_server_that_dies_mid_goal_ends_the_client_with_1(self):
+        server = self.start_server('lost')
+        logged = self.log.count()
+        client = self.start_client('lost', '1')
+        self.wait_goal_running(logged, 'lost')
+        os.killpg(server.pid, signal.SIGKILL)
+        killed_at = time.monotonic()
+        out, err = client.communicate(timeout=30.0)
+        self.assertEqual(client.returncode, 1, out + err)
+        self.assertIn('lost the action server', err)
+        self.assertLess(time.monotonic() - killed_at, 10.0, 'noticed within a few seconds')
+
+    def test_ctrl_c_while_waiting_for_the_server_prints_no_traceback(self):
+        client = self.start_client('nowhere', '1', '--server-timeout', '60')
+        ready, _, _ = select.select([client.stderr], [], [], 30.0)
+        self.assertTrue(ready, 'the client said nothing while waiting')
+        self.assertIn('waiting for the action server', client.stderr.readline())
+        client.send_signal(signal.SIGINT)
+        out, err = client.communicate(timeout=30.0)
+        self.assertEqual(client.returncode, 130, out + err)
+        self.assertNotIn('Traceback', err)
+
+    def test_no_master_exits_3_within_the_server_timeout(self):
+        env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')   # nothing listens on the discard port
+        started = time.monotonic()
+        result = subprocess.run(CLIENT + ['1', '--server-timeout', '2'], env=env, capture_output=True, text=True,
+                                timeout=30.0)
+        self.assertEqual(result.returncode, 3, result.stdout + result.stderr)
+        self.assertIn('no ROS master', result.stderr)
+        self.assertLess(time.monotonic() - started, 10.0)
+
+    def test_bad_timeouts_are_usage_errors(self):
+        for bad in (['--timeout', 'nan'], ['--timeout', 'inf'], ['--timeout', '-1'],
+                    ['--server-timeout', 'nan'], ['--server-timeout', '-1']):
+            code, out, err = run_client('1', *bad)
+            self.assertEqual(code, 2, 'exit code for %r' % bad)
+            self.assertIn('usage', err.lower())
+            self.assertNotIn('Traceback', err)
 
 
 if __name__ == '__main__':

@@ -59,7 +59,7 @@ from battery_simulator.msg import (BatterySimState, battery_simAction, battery_s
 from battery_simulator.nodes import topics
 from battery_simulator.nodes.battery_state import to_sim_state
 from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number)
+                                                    is_number, wait_for_rosout)
 from battery_simulator.nodes.saved_state import StateStore
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
                                    SetStateResponse)
@@ -197,6 +197,7 @@ class BatterySimServer:
         self._server.start()
         _restart_status_timer_on_clock_jumps(self._server.action_server)
         self._reconfigure = self._start_reconfigure()
+        wait_for_rosout()
         snapshot = self.model.snapshot()
         if self._resumed_from:
             rospy.loginfo('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',

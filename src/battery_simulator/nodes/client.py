@@ -174,6 +174,9 @@ def main(argv=None):
                   % (rosgraph.get_master_uri(), args.server_timeout))
         rospy.init_node('battery_sim_client', anonymous=True, disable_signals=True)
         action_client = actionlib.SimpleActionClient('battery_simulator', battery_simAction)
+        if not wait_in_wall_time(lambda: action_client.wait_for_server(rospy.Duration(0.5)), 1.0):
+            print('battery_sim_client: waiting for the action server %s (up to %g s)...'
+                  % (rospy.resolve_name('battery_simulator'), args.server_timeout), file=sys.stderr, flush=True)
         if not wait_in_wall_time(action_client.wait_for_server, args.server_timeout):
             _exit(3, 'battery_sim_client: no action server %s after %g s'
                   % (rospy.resolve_name('battery_simulator'), args.server_timeout))

@@ -1,6 +1,7 @@
 """Start-up parameter checks shared by the nodes: one fatal line, non-zero exit."""
 import math
 import sys
+import time
 
 import rospy
 
@@ -38,6 +39,21 @@ def checked_param(name, default, check, allowed):
         raise StartupError('parameter %s = %r is invalid: must be %s'
                            % (rospy.resolve_name(name), value, allowed))
     return value
+
+
+def wait_for_rosout(timeout_s=2.0):
+    """Wait (bounded, wall time) until /rosout listens, so that start-up lines reach rqt_console and tests.
+
+    rospy's /rosout publisher is latched with no queue for a late subscriber:
+    lines logged before rosout connects are lost but for the last.
+    """
+    from rospy.impl import rosout   # rospy's own publisher of /rosout
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline and not rospy.is_shutdown():
+        publisher = rosout._rosout_pub
+        if publisher is not None and publisher.get_num_connections() > 0:
+            return
+        time.sleep(0.02)
 
 
 def exit_on_startup_error(error):
