@@ -1,17 +1,23 @@
 #!/usr/bin/python3
-"""Speed figures of the battery model (a table of measured numbers, no pass/fail).
+"""Speed figures of the battery model and of the running ROS graph (tables of
+measured numbers beside their targets, no pass/fail).
 
-    /usr/bin/python3 tools/benchmark.py
+    /usr/bin/python3 tools/benchmark.py            # the model (no ROS needed)
+    tools/benchmark.sh                             # the model and the ROS graph (builds, sources devel)
 
-Target (issue 3): one model step <= 20 us in CPython, so a day of battery life
-at 10 Hz (864,000 steps) replays in seconds.
+Model target: one step <= 20 us in CPython, so a day of battery life at 10 Hz
+(864,000 steps) replays in seconds. Graph targets: see tools/graph_benchmark.py.
 """
+import importlib.util
+import os
 import statistics
 import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
+if importlib.util.find_spec('battery_simulator') is None:   # not sourced: the checkout's src/
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from battery_simulator.core.battery_model import BatteryModel, Mode  # noqa: E402
 from battery_simulator.core.parameters import preset  # noqa: E402
@@ -37,14 +43,28 @@ def per_step_us(mode, soc, **step_args):
 
 def day_replay_s():
     """Wall seconds to replay 24 h at 10 Hz (864,000 steps) through replay()."""
-    profile = [(0.0, 'current', -0.5), (86400.0, 'current', 0.0)]
+    profile = [(100.0 * k, 'current', -0.5) for k in range(864)] + [(86400.0, 'current', 0.0)]
     start = time.perf_counter()
     rows = list(replay(preset('lg_hg2_7s4p'), profile, max_step_s=0.1))
-    assert len(rows) == 2
+    assert len(rows) == len(profile)
     return time.perf_counter() - start
 
 
+def print_table(title, header, rows):
+    widths = [max(len(str(row[i])) for row in [header] + rows) for i in range(len(header))]
+    print('\n' + title)
+    print('  '.join('%-*s' % (w, h) for w, h in zip(widths, header)))
+    print('-' * (sum(widths) + 2 * (len(widths) - 1)))
+    for row in rows:
+        print('  '.join('%-*s' % (w, c) for w, c in zip(widths, row)))
+
+
 def main():
+    if '--graph' in sys.argv[1:]:
+        import graph_benchmark   # needs ROS: the devel space sourced
+        rows = graph_benchmark.run(graph_benchmark.SECTIONS)
+        print_table('The running ROS graph (%d cores)' % os.cpu_count(),
+                    ('measurement', 'figure', 'beside it', 'target'), rows)
     rows = [
         ('step, discharging (mode load)', '%.2f us' % per_step_us(Mode.DISCHARGE, 0.8)),
         ('step, CC charging', '%.2f us' % per_step_us(Mode.CHARGE, 0.3)),
@@ -52,12 +72,8 @@ def main():
         ('step, replayed current', '%.2f us' % per_step_us(Mode.IDLE, 0.5, current_a=-2.0)),
         ('24 h at 10 Hz replay (864,000 steps)', '%.2f s' % day_replay_s()),
     ]
-    width = max(len(name) for name, _ in rows)
-    print('%-*s  %s' % (width, 'measurement (CPython %d.%d)' % sys.version_info[:2], 'figure'))
-    print('-' * (width + 12))
-    for name, figure in rows:
-        print('%-*s  %s' % (width, name, figure))
-    print('target: a step <= 20 us')
+    print_table('The battery model (CPython %d.%d)' % sys.version_info[:2], ('measurement', 'figure', 'target'),
+                [(name, figure, '<= 20 us' if figure.endswith('us') else 'seconds') for name, figure in rows])
 
 
 if __name__ == '__main__':

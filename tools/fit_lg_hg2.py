@@ -3,6 +3,7 @@
 
     tools/fit_lg_hg2.py            # print the fitted preset and its errors
     tools/fit_lg_hg2.py --write    # also write config/presets/lg_hg2_cell.yaml
+    tools/fit_lg_hg2.py --plot docs/model_vs_hg2.png   # the shipped preset against the measurements, no fit
 
 1. OCV(SOC) from the C/20 discharge, its small IR drop added back, averaged
    with the C/20 charge (IR drop taken off) to split the hysteresis.
@@ -21,7 +22,7 @@ sys.path.insert(0, str(ROOT / 'src'))
 
 from battery_simulator.core.measured_data import (charge_runs, charge_time_error,  # noqa: E402
                                              discharge_rmse, load_cycler_csv, rmse, simulate)
-from battery_simulator.core.parameters import BatteryParameters  # noqa: E402
+from battery_simulator.core.parameters import BatteryParameters, preset  # noqa: E402
 
 DATA = ROOT / 'test' / 'data' / 'lg_hg2'
 SOC_GRID = (0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1, 0.125, 0.15, 0.2,
@@ -113,10 +114,61 @@ def fit_thermal(params):
     return replace(params, cell_heat_capacity_j_per_k=best[1], cell_heat_transfer_w_per_k=best[2]), best[0]
 
 
+def plot_against_measurements(params, output):
+    """Terminal voltage and temperature, model against measurement, for the C/20, 0.5C and 2C discharges."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot
+
+    figure, (volts_axis, heat_axis) = pyplot.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={'width_ratios': [2, 1]})
+    c20 = load_cycler_csv(DATA / '549_C20DisCh.csv', status='DCH')
+    volts_axis.plot([c20[0].capacity_ah - s.capacity_ah for s in c20], [s.voltage_v for s in c20], '.',
+                    color='tab:green', markersize=1.5, label='C/20 (0.15 A) measured')
+    volts_axis.plot([(1.0 - soc) * params.cell_capacity_ah for soc in params.ocv_soc], params.ocv_voltage_v, '-',
+                    color='tab:green', linewidth=1.0, label='model OCV table (fitted to C/20)')
+    for name, label, colour in (('549_Dis_0p5C.csv', '0.5C (1.5 A)', 'tab:blue'),
+                                ('549_Dis_2C.csv', '2C (6 A)', 'tab:red')):
+        samples = load_cycler_csv(DATA / name)
+        test = replace(params, ambient_temperature_c=samples[0].temperature_c)
+        _, voltages, temperatures = simulate(test, samples, state_of_charge=1.0)
+        delivered = [samples[0].capacity_ah - s.capacity_ah for s in samples]
+        error_mv = 1000.0 * rmse(voltages, [s.voltage_v for s in samples])
+        volts_axis.plot(delivered, [s.voltage_v for s in samples], '.', color=colour, markersize=2.5,
+                        label='%s measured' % label)
+        volts_axis.plot(delivered, voltages, '-', color=colour, linewidth=1.2,
+                        label='%s model (RMSE %.0f mV)' % (label, error_mv))
+        if name == '549_Dis_2C.csv':
+            minutes = [s.time_s / 60.0 for s in samples]
+            heat_axis.plot(minutes, [s.temperature_c for s in samples], '.', color=colour, markersize=3,
+                           label='measured')
+            heat_axis.plot(minutes, temperatures, '-', color=colour, label='model')
+    volts_axis.set_xlabel('charge delivered (Ah)')
+    volts_axis.set_ylabel('terminal voltage (V)')
+    volts_axis.set_title('LG HG2 cell: model (preset lg_hg2_cell) against measured discharges', fontsize=10)
+    volts_axis.legend(fontsize=7, loc='lower left')
+    volts_axis.grid(alpha=0.3)
+    heat_axis.set_xlabel('time (min)')
+    heat_axis.set_ylabel('cell temperature (°C)')
+    heat_axis.set_title('2C discharge: warming', fontsize=10)
+    heat_axis.legend(fontsize=8)
+    heat_axis.grid(alpha=0.3)
+    figure.text(0.01, 0.01, 'Data: Kollmeyer, Vidal, Naguib, Skells (2020), LG 18650HG2 Li-ion Battery Data, '
+                'Mendeley Data V3, doi:10.17632/cp3473x7xv.3, CC BY 4.0', fontsize=7, color='dimgrey')
+    figure.tight_layout(rect=(0, 0.03, 1, 1))
+    figure.savefig(output, dpi=110)
+    pyplot.close(figure)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--write', action='store_true', help='write config/presets/lg_hg2_cell.yaml')
+    parser.add_argument('--plot', metavar='PNG', help='plot the shipped preset against the measured '
+                        'discharges into PNG and exit')
     args = parser.parse_args()
+    if args.plot:
+        plot_against_measurements(preset('lg_hg2_cell'), args.plot)
+        print('wrote %s' % args.plot)
+        return
     soc, volts, capacity = ocv_table()
     params = BatteryParameters(name='lg_hg2_cell', cell_capacity_ah=round(capacity, 3),
                                ocv_soc=tuple(soc), ocv_voltage_v=tuple(volts),

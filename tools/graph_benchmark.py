@@ -1,0 +1,297 @@
+"""Figures of the running ROS graph, each beside a bare reference where one makes sense.
+
+Run through ``tools/benchmark.py --graph`` (needs the devel space sourced). It
+starts its own master on a free port, starts every launch file it measures as
+a process group of its own, and ends each by its pid.
+"""
+import os
+import random
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import threading
+import time
+import xmlrpc.client
+
+import actionlib
+import rosgraph
+import rospy
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+
+from battery_simulator.msg import battery_simAction, battery_simGoal
+
+REFERENCE_NODE = '''
+import sys, rospy
+from sensor_msgs.msg import BatteryState
+rospy.init_node('reference_publisher')
+pub = rospy.Publisher(sys.argv[2], BatteryState, queue_size=10)
+msg = BatteryState()
+def tick(event):
+    msg.header.stamp = rospy.Time.now()
+    pub.publish(msg)
+rospy.Timer(rospy.Duration(1.0 / float(sys.argv[1])), tick)
+rospy.spin()
+'''
+
+
+def free_port():
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        return sock.getsockname()[1]
+
+
+class Processes:
+    """Child process groups, each ended by its pid (SIGINT, then SIGKILL)."""
+
+    def __init__(self):
+        self._children = []
+
+    def start(self, command):
+        child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                 start_new_session=True)
+        self._children.append(child)
+        return child
+
+    def stop(self, child):
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGINT)
+            try:
+                child.wait(timeout=20.0)
+            except subprocess.TimeoutExpired:
+                os.killpg(child.pid, signal.SIGKILL)
+                child.wait()
+        self._children.remove(child)
+
+    def stop_all(self):
+        for child in reversed(list(self._children)):
+            self.stop(child)
+
+
+def launch(processes, launch_file, namespace=None, **args):
+    command = ['roslaunch', 'battery_simulator', launch_file] + ['%s:=%s' % item for item in args.items()]
+    if namespace:
+        command = ['env', 'ROS_NAMESPACE=' + namespace] + command
+    return processes.start(command)
+
+
+def wait_until(condition, timeout_s, what):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise RuntimeError('timed out waiting for %s' % what)
+        time.sleep(0.005)
+
+
+class Arrivals:
+    """Wall arrival times (and messages) of one topic."""
+
+    def __init__(self, topic, msg_type=BatteryState):
+        self.lock = threading.Lock()
+        self.items = []
+        self.sub = rospy.Subscriber(topic, msg_type, self._on, queue_size=1000, tcp_nodelay=True)
+
+    def _on(self, msg):
+        with self.lock:
+            self.items.append((time.monotonic(), msg))
+
+    def since(self, index):
+        with self.lock:
+            return self.items[index:]
+
+    def count(self):
+        with self.lock:
+            return len(self.items)
+
+    def close(self):
+        self.sub.unregister()
+
+
+def rate_figures(topic, rate_hz, duration_s):
+    """(rate error %, p99 |interval - period| in ms) over ``duration_s`` of arrivals."""
+    arrivals = Arrivals(topic)
+    wait_until(lambda: arrivals.count() >= 3, 30.0, topic)
+    start = arrivals.count()
+    time.sleep(duration_s)
+    times = [t for t, _ in arrivals.since(start)]
+    arrivals.close()
+    intervals = [b - a for a, b in zip(times, times[1:])]
+    measured_hz = len(intervals) / (times[-1] - times[0])
+    deviations = sorted(abs(i - 1.0 / rate_hz) for i in intervals)
+    p99 = deviations[min(len(deviations) - 1, int(0.99 * len(deviations)))]
+    return 100.0 * abs(measured_hz - rate_hz) / rate_hz, 1000.0 * p99
+
+
+def process_ids(node_names):
+    master = rosgraph.Master('/graph_benchmark')
+    pids = {}
+    for name in node_names:
+        uri = master.lookupNode(name)
+        pids[name] = xmlrpc.client.ServerProxy(uri).getPid('/graph_benchmark')[2]
+    return pids
+
+
+def cpu_seconds(pid):
+    with open('/proc/%d/stat' % pid) as stream:
+        fields = stream.read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def rss_mb(pid):
+    with open('/proc/%d/status' % pid) as stream:
+        for line in stream:
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1]) / 1024.0
+    return 0.0
+
+
+def cpu_percent(pids, duration_s):
+    before = {pid: cpu_seconds(pid) for pid in pids}
+    time.sleep(duration_s)
+    return {pid: 100.0 * (cpu_seconds(pid) - before[pid]) / duration_s for pid in pids}
+
+
+# -- the measurements -------------------------------------------------------------
+
+def measure_rates(processes, rows):
+    for rate_hz in (1.0, 100.0, 500.0):
+        duration_s = 30.0 if rate_hz < 10 else 10.0
+        ns = 'rate%d' % rate_hz
+        sim = launch(processes, 'sim.launch', ns, rate=rate_hz)
+        reference = processes.start([sys.executable, '-c', REFERENCE_NODE, str(rate_hz), '/%s/reference' % ns])
+        try:
+            error, jitter = rate_figures('/%s/battery_status' % ns, rate_hz, duration_s)
+            ref_error, ref_jitter = rate_figures('/%s/reference' % ns, rate_hz, duration_s)
+        finally:
+            processes.stop(reference)
+            processes.stop(sim)
+        rows.append(('battery_status rate error at %g Hz' % rate_hz, '%.2f %%' % error,
+                     'reference %.2f %%' % ref_error, '< 0.5 %'))
+        rows.append(('battery_status p99 jitter at %g Hz' % rate_hz, '%.2f ms' % jitter,
+                     'reference %.2f ms (%.2fx)' % (ref_jitter, jitter / ref_jitter if ref_jitter else float('nan')),
+                     '<= 1.2x reference'))
+
+
+def first_feedback_ms(client, charge):
+    """Wall ms from send_goal to the goal's first feedback."""
+    got = threading.Event()
+    sent = time.monotonic()
+    client.send_goal(battery_simGoal(charge_state=charge), feedback_cb=lambda feedback: got.set())
+    got.wait(5.0)
+    return 1000.0 * (time.monotonic() - sent)
+
+
+def measure_goals(processes, rows, repeats=40):
+    sim = launch(processes, 'sim.launch', 'goals', time_scale=1, initial_percentage=50)
+    try:
+        client = actionlib.SimpleActionClient('/goals/battery_simulator', battery_simAction)
+        other = actionlib.SimpleActionClient('/goals/battery_simulator', battery_simAction)
+        assert client.wait_for_server(rospy.Duration(30.0)) and other.wait_for_server(rospy.Duration(30.0))
+        idle, preempting = [], []
+        for index in range(repeats):
+            charge = bool(index % 2)
+            idle.append(first_feedback_ms(client, charge))
+            preempting.append(first_feedback_ms(other, not charge))   # preempts client's goal
+            client.wait_for_result(rospy.Duration(5.0))
+            other.cancel_goal()
+            other.wait_for_result(rospy.Duration(5.0))
+    finally:
+        processes.stop(sim)
+    for name, values in (('goal -> first feedback, idle server', idle),
+                         ('goal -> first feedback, preempting an active goal', preempting)):
+        rows.append((name, '%.1f ms median' % statistics.median(values), 'max %.1f ms' % max(values),
+                     '< 20 ms median'))
+
+
+def measure_contact(processes, rows, repeats=6):
+    for rate_hz in (1.0, 0.2):
+        ns = 'contact%d' % (rate_hz * 10)
+        sim = launch(processes, 'sim.launch', ns, rate=rate_hz, initial_percentage=50)
+        contact = rospy.Publisher('/%s/charger_contact' % ns, Bool, queue_size=1, latch=True)
+        arrivals = Arrivals('/%s/battery_status' % ns)
+        delays = []
+        try:
+            wait_until(lambda: arrivals.count() > 0, 30.0, 'battery_status')
+            for index in range(repeats):
+                connected = index % 2 == 0
+                wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
+                          else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+                start, sent = arrivals.count(), time.monotonic()
+                contact.publish(Bool(data=connected))
+                wait_until(lambda: any(m.power_supply_status == wanted for _, m in arrivals.since(start)), 10.0,
+                           'the status change')
+                arrived = next(t for t, m in arrivals.since(start) if m.power_supply_status == wanted)
+                delays.append(1000.0 * (arrived - sent))
+                time.sleep(0.3 + random.random() * 0.7)   # land at different points of the publisher's period
+        finally:
+            contact.unregister()
+            arrivals.close()
+            processes.stop(sim)
+        rows.append(('contact -> status on battery_status at %g Hz' % rate_hz,
+                     '%.0f ms median' % statistics.median(delays), 'max %.0f ms' % max(delays), '< 1 s'))
+
+
+def measure_cost_and_start(processes, rows):
+    starts = []
+    for attempt in range(3):
+        ns = 'start%d' % attempt
+        arrivals = Arrivals('/%s/battery_status' % ns)
+        started = time.monotonic()
+        sim = launch(processes, 'sim.launch', ns)
+        try:
+            wait_until(lambda: arrivals.count() > 0, 30.0, 'the first battery_status')
+            starts.append(time.monotonic() - started)
+            if attempt == 0:
+                names = ['/%s/BatterySimServer' % ns, '/%s/battery_state_pub' % ns]
+                pids = process_ids(names)
+                time.sleep(5.0)
+                cpu = cpu_percent(list(pids.values()), 30.0)
+                for name in names:
+                    rows.append(('%s at the defaults' % name.split('/')[-1], '%.2f %% CPU' % cpu[pids[name]],
+                                 '%.0f MB RSS' % rss_mb(pids[name]), '< 2 % and < 60 MB'))
+        finally:
+            arrivals.close()
+            processes.stop(sim)
+    rows.append(('sim.launch -> first battery_status (master running)', '%.2f s median' % statistics.median(starts),
+                 'max %.2f s' % max(starts), '< 3 s'))
+
+
+def measure_fleet(processes, rows):
+    for n in (1, 5, 20):
+        fleet = launch(processes, 'fleet.launch', n=n)
+        try:
+            arrivals = [Arrivals('/robot%d/battery_status' % i) for i in range(n)]
+            wait_until(lambda: all(a.count() > 0 for a in arrivals), 120.0, 'every robot publishing')
+            for a in arrivals:
+                a.close()
+            names = ['/robot%d/%s' % (i, node) for i in range(n) for node in ('BatterySimServer', 'battery_state_pub')]
+            pids = list(process_ids(names).values())
+            time.sleep(5.0)
+            cpu = sum(cpu_percent(pids, 20.0).values())
+            memory = sum(rss_mb(pid) for pid in pids)
+        finally:
+            processes.stop(fleet)
+        rows.append(('fleet.launch n:=%d (%d node processes)' % (n, len(pids)), '%.1f %% of one core' % cpu,
+                     '%.0f MB RSS' % memory, '20 robots < 50 % of a core'))
+
+
+def run(sections):
+    """Start a master, run the named sections, return the table rows."""
+    port = free_port()
+    os.environ['ROS_MASTER_URI'] = 'http://127.0.0.1:%d' % port
+    processes = Processes()
+    master = processes.start(['rosmaster', '--core', '-p', str(port)])
+    rows = []
+    try:
+        wait_until(lambda: rosgraph.Master('/graph_benchmark').is_online(), 30.0, 'the master')
+        rospy.init_node('graph_benchmark', disable_signals=True)
+        for section in sections:
+            section(processes, rows)
+    finally:
+        processes.stop_all()   # the master last: it was started first
+    return rows
+
+
+SECTIONS = (measure_goals, measure_contact, measure_cost_and_start, measure_rates, measure_fleet)
