@@ -62,7 +62,8 @@ def print_table(title, header, rows):
 def main():
     if '--graph' in sys.argv[1:]:
         import graph_benchmark   # needs ROS: the devel space sourced
-        rows = graph_benchmark.run(graph_benchmark.SECTIONS)
+        names = [a for a in sys.argv[1:] if not a.startswith('--')]   # e.g. rates fleet: only those sections
+        rows = graph_benchmark.run([s for s in graph_benchmark.SECTIONS if not names or s.__name__[8:] in names])
         print_table('The running ROS graph (%d cores)' % os.cpu_count(),
                     ('measurement', 'figure', 'beside it', 'target'), rows)
     rows = [

@@ -1,8 +1,11 @@
 #!/usr/bin/python3
 """Sum the JUnit XML files of a test run; print 'N passed, N failed, N skipped'.
 
-Exits 1 when a test failed or errored, when a result file is unreadable, or
-when no test ran at all.
+Counts real test cases only: rostest's wrapper files (rostest-*.xml, one
+entry standing for a whole .test file) add their failures (a test node that
+crashed or ran out of time) but not their count. Exits 1 when a test failed
+or errored, when a result file is unreadable, when any result file ran zero
+cases, or when no test ran at all.
 """
 import sys
 import xml.etree.ElementTree as ElementTree
@@ -32,7 +35,16 @@ def main():
             print('%s: unreadable (%s)' % (path.name, error))
             broken = True
             continue
+        wrapper = path.name.startswith('rostest-')
+        if wrapper:
+            if failed:
+                print('%-45s the rostest itself failed (%d)' % (path.name, failed))
+            totals[1] += failed
+            continue
         print('%-45s %3d tests, %d failed, %d skipped' % (path.name, tests, failed, skipped))
+        if tests == 0:
+            print('%-45s ran no test case' % path.name)
+            broken = True
         totals = [t + n for t, n in zip(totals, (tests, failed, skipped))]
     tests, failed, skipped = totals
     print('%d passed, %d failed, %d skipped' % (tests - failed - skipped, failed, skipped))

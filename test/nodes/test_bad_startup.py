@@ -1,10 +1,15 @@
 #!/usr/bin/python3
 """rostest: bad start-up values stop a node with one fatal line naming the
-parameter, the value and what is allowed, and a non-zero exit."""
+parameter, the value and what is allowed, and a non-zero exit.
+
+Every bad start-up is independent, so they all run at once (four at a time)
+before the checks; each check then reads its own node's output."""
+import concurrent.futures
 import itertools
 import os
 import signal
 import subprocess
+import tempfile
 import unittest
 
 import rospy
@@ -12,11 +17,41 @@ import rostest
 
 from rostest_helpers import wait_for
 
-STARTUP_TIMEOUT_S = 30.0
+STARTUP_TIMEOUT_S = 60.0
 RUN_NUMBERS = itertools.count()
+CONFIG_DIR = tempfile.mkdtemp(prefix='battery_simulator_bad_startup_')
 
 
-def run_node(script, *params):
+def config_file(name, content):
+    path = os.path.join(CONFIG_DIR, name + '.yaml')
+    with open(path, 'wb') as stream:
+        stream.write(content)
+    return path
+
+
+SERVER, PUBLISHER = 'battery_sim_server.py', 'battery_state_pub.py'
+BAD_VALUE_YAML = config_file('bad_value', b'preset: lg_hg2_3s1p\nload_current_a: -2\n')
+#: case -> (script, [param:=value ...]); each runs once, all at once
+CASES = {
+    'time_scale': (SERVER, ['_time_scale:=-3']),
+    'update_rate': (SERVER, ['_update_rate:=fast']),
+    'initial_percentage': (SERVER, ['_initial_percentage:=120']),
+    'charging': (SERVER, ['_charging:=maybe']),
+    'missing_config': (SERVER, ['_config:=/nonexistent/battery.yaml']),
+    'bad_yaml_value': (SERVER, ['_config:=' + BAD_VALUE_YAML]),
+    'empty_config': (SERVER, ['_config:=' + config_file('empty', b'')]),
+    'key_not_text': (SERVER, ['_config:=' + config_file('key', b'1: 2\n')]),
+    'not_utf8': (SERVER, ['_config:=' + config_file('utf8', b'location: "\xff"\n')]),
+    'absurd_cells': (SERVER, ['_config:=' + config_file('cells', b'cells_series: 1000000\n')]),
+    'absurd_load': (SERVER, ['_config:=' + config_file('load', b'load_current_a: 1000\n')]),
+    'rate': (PUBLISHER, ['_rate:=0']),
+    'stale_timeout': (PUBLISHER, ['_stale_timeout:=-1']),
+    'low_percentage': (PUBLISHER, ['_low_percentage:=20']),
+    'critical_above_low': (PUBLISHER, ['_low_percentage:=0.1', '_critical_percentage:=0.3']),
+}
+
+
+def run_node(script, params):
     """Run a node of the package on this test's master until it exits; (exit code, output)."""
     name = 'bad_%s_%d' % (script.split('.')[0], next(RUN_NUMBERS))  # private params do not leak
     command = ['rosrun', 'battery_simulator', script, '__name:=' + name] + list(params)
@@ -26,9 +61,15 @@ def run_node(script, *params):
 
 class TestBadStartup(unittest.TestCase):
 
-    def check_rejected(self, script, param, value, allowed):
-        code, output = run_node(script, '_%s:=%s' % (param, value))
-        self.assertNotEqual(code, 0, '%s %s:=%s exited 0:\n%s' % (script, param, value, output))
+    @classmethod
+    def setUpClass(cls):
+        with concurrent.futures.ThreadPoolExecutor(max_workers=4) as pool:
+            futures = {case: pool.submit(run_node, *CASES[case]) for case in CASES}
+            cls.results = {case: future.result() for case, future in futures.items()}
+
+    def check_rejected(self, case, param, value, allowed):
+        code, output = self.results[case]
+        self.assertNotEqual(code, 0, '%s exited 0:\n%s' % (case, output))
         fatal = [line for line in output.splitlines() if 'FATAL' in line]
         self.assertEqual(len(fatal), 1, 'one fatal line expected:\n%s' % output)
         self.assertIn(param, fatal[0])
@@ -37,48 +78,44 @@ class TestBadStartup(unittest.TestCase):
         self.assertNotIn('Traceback', output)
 
     def test_server_rejects_bad_time_scale(self):
-        self.check_rejected('battery_sim_server.py', 'time_scale', '-3', 'a number > 0')
+        self.check_rejected('time_scale', 'time_scale', '-3', 'a number > 0')
 
     def test_server_rejects_bad_update_rate(self):
-        self.check_rejected('battery_sim_server.py', 'update_rate', 'fast', 'a number in (0, 1000] Hz')
+        self.check_rejected('update_rate', 'update_rate', 'fast', 'a number in (0, 1000] Hz')
 
     def test_server_rejects_bad_initial_percentage(self):
-        self.check_rejected('battery_sim_server.py', 'initial_percentage', '120', 'a number in [0, 100]')
+        self.check_rejected('initial_percentage', 'initial_percentage', '120', 'a number in [0, 100]')
 
     def test_server_rejects_bad_charging(self):
-        self.check_rejected('battery_sim_server.py', 'charging', 'maybe', 'true or false')
+        self.check_rejected('charging', 'charging', 'maybe', 'true or false')
 
     def test_server_rejects_missing_config_file(self):
-        self.check_rejected('battery_sim_server.py', 'config', '/nonexistent/battery.yaml', 'cannot read')
+        self.check_rejected('missing_config', 'config', '/nonexistent/battery.yaml', 'cannot read')
 
     def test_server_rejects_bad_yaml_value_naming_file_and_key(self):
-        path = '/tmp/battery_simulator_bad_%d.yaml' % rospy.get_time()
-        with open(path, 'w') as stream:
-            stream.write('preset: lg_hg2_3s1p\nload_current_a: -2\n')
-        self.check_rejected('battery_sim_server.py', 'config', path, 'load_current_a')
-        code, output = run_node('battery_sim_server.py', '_config:=%s' % path)
-        self.assertIn(path, output)
-        self.assertIn('-2', output)
-
-    def write_config(self, content):
-        path = '/tmp/battery_simulator_config_%d_%d.yaml' % (os.getpid(), next(RUN_NUMBERS))
-        with open(path, 'wb') as stream:
-            stream.write(content)
-        self.addCleanup(os.remove, path)
-        return path
+        self.check_rejected('bad_yaml_value', 'config', BAD_VALUE_YAML, 'load_current_a')
+        self.assertIn('-2', self.results['bad_yaml_value'][1])
 
     def test_server_rejects_unusable_config_files_with_one_line(self):
-        for content, allowed in ((b'', 'is empty'), (b'1: 2\n', 'must be text'),
-                                 (b'location: "\xff"\n', 'not UTF-8'), (b'cells_series: 1000000\n', 'cells_series'),
-                                 (b'load_current_a: 1000\n', 'load_current_a')):
-            with self.subTest(content=content):
-                self.check_rejected('battery_sim_server.py', 'config', self.write_config(content), allowed)
+        for case, allowed in (('empty_config', 'is empty'), ('key_not_text', 'must be text'),
+                              ('not_utf8', 'not UTF-8'), ('absurd_cells', 'cells_series'),
+                              ('absurd_load', 'load_current_a')):
+            with self.subTest(case=case):
+                self.check_rejected(case, 'config', CASES[case][1][0].split(':=')[1], allowed)
+
+    def test_publisher_rejects_bad_rate(self):
+        self.check_rejected('rate', 'rate', '0', 'a number in (0, 1000] Hz')
+
+    def test_publisher_rejects_bad_levels_and_stale_timeout(self):
+        self.check_rejected('stale_timeout', 'stale_timeout', '-1', 'a number > 0 s')
+        self.check_rejected('low_percentage', 'low_percentage', '20', 'a fraction in [0, 1]')
+        self.check_rejected('critical_above_low', 'critical_percentage', '0.3', 'at most ~low_percentage')
 
     def test_numbers_that_roslaunch_passes_as_text_are_accepted(self):
         name = 'text_numbers_%d' % next(RUN_NUMBERS)
         rospy.set_param('/%s/time_scale' % name, '1e9')          # as roslaunch passes time_scale:=1e9
         rospy.set_param('/%s/initial_percentage' % name, ' 50 ')
-        server = subprocess.Popen(['rosrun', 'battery_simulator', 'battery_sim_server.py', '__name:=' + name],
+        server = subprocess.Popen(['rosrun', 'battery_simulator', SERVER, '__name:=' + name],
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
             wait_for(lambda: rospy.has_param('/%s/saved_state' % name) or server.poll() is not None,
@@ -92,17 +129,6 @@ class TestBadStartup(unittest.TestCase):
                 except subprocess.TimeoutExpired:
                     os.killpg(server.pid, signal.SIGKILL)
                     server.wait()
-
-    def test_publisher_rejects_bad_levels_and_stale_timeout(self):
-        self.check_rejected('battery_state_pub.py', 'stale_timeout', '-1', 'a number > 0 s')
-        self.check_rejected('battery_state_pub.py', 'low_percentage', '20', 'a fraction in [0, 1]')
-        code, output = run_node('battery_state_pub.py', '_low_percentage:=0.1', '_critical_percentage:=0.3')
-        self.assertNotEqual(code, 0)
-        self.assertIn('critical_percentage', output)
-        self.assertIn('0.3', output)
-
-    def test_publisher_rejects_bad_rate(self):
-        self.check_rejected('battery_state_pub.py', 'rate', '0', 'a number in (0, 1000] Hz')
 
 
 if __name__ == '__main__':

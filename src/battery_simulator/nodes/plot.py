@@ -5,11 +5,13 @@
 
 Status changes are marked on the time axis (dotted lines, labelled), and so
 are battery_low / battery_critical events: from the bag's own topics when it
-recorded them, else from the level and the default thresholds. Headless
+recorded them, else from the level and the default thresholds; a bag's
+``.../phase`` topic (patrol_and_dock's) is marked too. Headless
 (matplotlib's Agg backend). A bad input gets one line and exit 1.
 """
 import argparse
 import csv
+import os
 import sys
 from collections import namedtuple
 
@@ -85,11 +87,15 @@ def read_rosbag(path, topic=None):
                             % (path, ' %s' % topic if topic else '', ', '.join(sorted(types)) or 'nothing'))
         namespace = topic[:-len('battery_status')] if topic.endswith('battery_status') else ''
         events = {namespace + 'battery_low': 'low', namespace + 'battery_critical': 'critical'}
-        messages, alarm_marks = [], []
-        for name, msg, stamp in bag.read_messages(topics=[topic] + list(events)):
+        phases = [t for t, info in types.items() if t.endswith('/phase') and info.msg_type == 'std_msgs/String']
+        messages, alarm_marks, active = [], [], {}
+        for name, msg, stamp in bag.read_messages(topics=[topic] + list(events) + phases):
             if name == topic:
                 messages.append(msg)
-            else:
+            elif name in phases:
+                alarm_marks.append((stamp.to_sec(), msg.data))
+            elif msg.data != active.get(name, False):   # a change, not the latched initial false
+                active[name] = msg.data
                 alarm_marks.append((stamp.to_sec(), events[name] + ('' if msg.data else ' cleared')))
     if not messages:
         raise PlotError('%s: no messages on %s' % (path, topic))
@@ -100,7 +106,7 @@ def read_rosbag(path, topic=None):
         marks += [(max(0.0, t - start), label) for t, label in alarm_marks]
     else:
         marks += level_marks(time, [m.percentage for m in messages])
-    return Run('%s (%s)' % (path, topic), time, voltage=[m.voltage for m in messages],
+    return Run('%s (%s)' % (os.path.basename(str(path)), topic), time, voltage=[m.voltage for m in messages],
                current=[m.current for m in messages], percentage=[100.0 * m.percentage for m in messages],
                temperature=[m.temperature for m in messages], marks=sorted(marks))
 
@@ -126,7 +132,7 @@ def plot(run, output):
     axes[2].set_ylim(-2, 102)
     top = axes[0]
     for index, (t, text) in enumerate(run.marks):   # inside the top plot, alternating ends so neighbours overlap less
-        event = not text.isupper()
+        event = text.startswith(('low', 'critical'))
         top.annotate(' %s ' % text, xy=(t * scale, 0.03 if index % 2 else 0.97), xycoords=('data', 'axes fraction'),
                      rotation=90, fontsize=7, va='bottom' if index % 2 else 'top', ha='right',
                      color='darkred' if event else 'dimgrey')
@@ -146,11 +152,14 @@ def main(argv=None):
     parser.add_argument('input', help='a battery_replay.py output CSV, or a rosbag with a BatteryState topic')
     parser.add_argument('-o', '--output', default='battery.png', help='PNG to write (default battery.png)')
     parser.add_argument('--topic', help='BatteryState topic in the bag (default: the one ending in battery_status)')
+    parser.add_argument('--title', help='the figure title (default: the file name)')
     args = parser.parse_args(argv)
     try:
         with open(args.input, 'rb') as stream:
             is_bag = stream.read(13) == b'#ROSBAG V2.0\n'
         run = read_rosbag(args.input, args.topic) if is_bag else read_replay_csv(args.input)
+        if args.title:
+            run = run._replace(title=args.title)
         plot(run, args.output)
     except OSError as error:
         sys.exit('battery_plot: %s: cannot read: %s' % (args.input, error.strerror))

@@ -24,7 +24,6 @@ server is back.
   - ``battery_low``, ``battery_critical`` (std_msgs/Bool, latched)
   - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): status "<node>: Battery"
 """
-import copy
 import math
 import threading
 import time
@@ -123,6 +122,7 @@ class BatteryStatePublisher:
             time.sleep(DIAGNOSTIC_PERIOD_S)
 
     def publish_once(self):
+        """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
         with self._lock:
             latest, received_at = self._latest, self._received_at
             if latest is None:
@@ -132,16 +132,17 @@ class BatteryStatePublisher:
                 rospy.logwarn_throttle(10.0, 'sensor_dropout fault active: battery_status withheld')
                 self._published_status = None
                 return
-            stale = time.monotonic() - received_at > self._stale_timeout_s
-            if stale:
+            age_s = time.monotonic() - received_at
+            if age_s > self._stale_timeout_s:
                 rospy.logwarn_throttle(10.0, 'battery state is stale: no update from the battery_simulator '
-                                       'server for %.0f s; republishing the last known state',
-                                       time.monotonic() - received_at)
+                                       'server for %.0f s; republishing the last known state', age_s)
+                self._stale = True
             elif self._stale:
                 rospy.loginfo('battery state updates resumed')
-            self._stale = stale
-            msg = copy.copy(latest.battery)
-            msg.header = copy.copy(latest.battery.header)
+                self._stale = False
+            # The server's message is ours alone (a fresh one per update) and publish() serializes it
+            # before returning, so it is restamped in place rather than copied on every tick.
+            msg = latest.battery
             msg.header.stamp = rospy.Time.now()
             msg.header.frame_id = self._frame_id
             self._published_status = msg.power_supply_status

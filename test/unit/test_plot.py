@@ -1,0 +1,54 @@
+"""battery_plot.py: a PNG from a replay CSV or a rosbag; one line for bad input."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+plot = pytest.importorskip('battery_simulator.nodes.plot', reason='needs the devel space (tools/run_tests.sh)')
+
+
+def run_plot(*args):
+    code = 'from battery_simulator.nodes.plot import main; main()'
+    return subprocess.run([sys.executable, '-c', code, *map(str, args)], capture_output=True, text=True, timeout=120)
+
+
+def is_png(path):
+    return path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and path.stat().st_size > 10000
+
+
+def test_a_replay_csv_becomes_a_png_with_status_and_level_marks(tmp_path):
+    csv_path = tmp_path / 'run.csv'
+    csv_path.write_text('time,voltage,current,soc,temperature,status\n'
+                        '0,12.6,-1.5,0.30,25.0,DISCHARGING\n600,11.0,-1.5,0.18,26.0,DISCHARGING\n'
+                        '1200,10.0,-1.5,0.04,27.0,DISCHARGING\n1300,9.0,0.0,0.03,26.5,EMPTY\n')
+    run = plot.read_replay_csv(csv_path)
+    labels = [label for _, label in run.marks]
+    assert labels == ['DISCHARGING', 'low', 'critical', 'EMPTY'], labels
+    assert run.percentage[0] == pytest.approx(30.0)
+    result = run_plot(csv_path, '-o', tmp_path / 'run.png')
+    assert result.returncode == 0, result.stderr
+    assert is_png(tmp_path / 'run.png')
+
+
+def test_a_rosbag_of_the_demo_becomes_a_png_with_its_phases():
+    run = plot.read_rosbag(ROOT / 'docs' / 'demo_cycle.bag')
+    labels = [label for _, label in run.marks]
+    for expected in ('GO_TO_DOCK', 'CHARGING', 'UNDOCK', 'FULL', 'low'):
+        assert expected in labels, labels
+    assert max(run.percentage) > 99.0 and min(run.percentage) < 30.0
+
+
+@pytest.mark.parametrize('content, expected', [
+    (b'time,current\n0,1\n', 'not a battery_replay.py output'),
+    (bytes(range(256)), 'not a replay CSV'),
+    (b'#ROSBAG V2.0\ngarbage', 'not a readable rosbag'),
+])
+def test_bad_input_gets_one_line(tmp_path, content, expected):
+    path = tmp_path / 'bad'
+    path.write_bytes(content)
+    result = run_plot(path, '-o', tmp_path / 'out.png')
+    assert result.returncode == 1 and expected in result.stderr, result.stderr
+    assert 'Traceback' not in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    assert run_plot(tmp_path / 'absent.csv').returncode == 1
