@@ -33,6 +33,11 @@ class Recorder:
         with self._lock:
             return len(self._messages)
 
+    def arrival(self, index):
+        """The monotonic arrival time of the ``index``-th message."""
+        with self._lock:
+            return self._messages[index][0]
+
     def since(self, index):
         with self._lock:
             return [m for _, m in self._messages[index:]]

@@ -3,6 +3,7 @@
 end to end against sim.launch (test/action_interface.test, time_scale 1000)."""
 import math
 import threading
+import time
 import unittest
 
 import actionlib
@@ -12,11 +13,13 @@ from actionlib_msgs.msg import GoalStatus
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.msg import battery_simAction, battery_simGoal
+from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
+from battery_simulator.srv import SetState
 from rostest_helpers import Recorder, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 GOAL_TIMEOUT_S = 60.0
+NAN = float('nan')
 
 
 class FeedbackLog:
@@ -42,6 +45,9 @@ class TestActionInterface(unittest.TestCase):
         assert cls.client.wait_for_server(rospy.Duration(30.0)), 'Could not connect to battery_simulator'
         cls.status = Recorder('battery_status')
         cls.log = Recorder('/rosout', Log)
+        cls.state = Recorder('battery_simulator/state', BatterySimState)
+        rospy.wait_for_service('battery_simulator/set_state', 30.0)
+        cls.set_state = rospy.ServiceProxy('battery_simulator/set_state', SetState)
         wait_for(lambda: cls.status.count() > 0, 30.0, 'the first battery_status')
 
     def tearDown(self):
@@ -65,27 +71,27 @@ class TestActionInterface(unittest.TestCase):
         return feedback
 
     def discharge_below(self, percentage):
-        """Discharging, a little below ``percentage`` (charging first if far below or empty)."""
-        if self.status.latest().percentage < (percentage - 10.0) / 100.0:
-            rospy.set_param(MODE_PARAM, 1)
-            self.status.wait_until(lambda m: m.percentage > (percentage - 5.0) / 100.0, 30.0,
-                                   'charged to %g %%' % (percentage - 5.0))
+        """Discharging, just below ``percentage`` (set_state puts it there: goals start near their ends)."""
         rospy.set_param(MODE_PARAM, 0)
+        self.assertTrue(self.set_state(percentage - 0.5, NAN, NAN).success)
         self.status.wait_until(lambda m: m.current < 0 and m.percentage < percentage / 100.0, 30.0,
                                'discharging below %g %%' % percentage)
 
     # -- goals ----------------------------------------------------------------
 
     def test_charge_goal_streams_feedback_and_succeeds_full(self):
-        self.discharge_below(60)
+        self.discharge_below(80)
+        updates = self.state.count()
         state, result, feedback = self.run_goal(True)
+        updates = self.state.count() - updates
         self.assertEqual(state, GoalStatus.SUCCEEDED)
         self.assertEqual(result.battery_status, 'Full')
         self.assertEqual(rospy.get_param(MODE_PARAM), 1)
-        self.assertGreater(len(feedback), 20, 'feedback at every model update')
+        self.assertGreater(len(feedback), 15)
+        self.assertGreaterEqual(len(feedback), updates - 2, 'feedback at every model update')
         self.assertTrue(all(0.0 <= f <= 100.0 for f in feedback))
         self.assertEqual(feedback, sorted(feedback), 'charging never lowers the level')
-        self.assertLess(feedback[0], 60.0)
+        self.assertLess(feedback[0], 80.0)
         self.assertGreater(feedback[-1], 97.0, 'feedback runs up to full')
         full = self.status.wait_until(lambda m: m.power_supply_status == BatteryState.POWER_SUPPLY_STATUS_FULL,
                                       10.0, 'FULL on battery_status')
@@ -93,6 +99,7 @@ class TestActionInterface(unittest.TestCase):
         self.assertEqual(full.current, 0.0)
 
     def test_discharge_goal_succeeds_empty_and_stops_at_cut_off(self):
+        self.discharge_below(15)
         state, result, feedback = self.run_goal(False)
         self.assertEqual(state, GoalStatus.SUCCEEDED)
         self.assertEqual(result.battery_status, 'Empty')
@@ -101,6 +108,8 @@ class TestActionInterface(unittest.TestCase):
         self.assertGreaterEqual(min(feedback), 0.0)
         self.assertLess(feedback[-1], 5.0)
         empty = self.status.wait_until(lambda m: m.current == 0.0, 10.0, 'the load disconnected')
+        self.assertEqual(empty.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING,
+                         'EMPTY is reported as NOT_CHARGING (no current flows)')
         self.assertGreaterEqual(empty.percentage, 0.0)
         self.assertGreater(empty.voltage, 3 * 2.8 - 0.01)
         # a goal that starts where it would end succeeds at once
@@ -108,6 +117,7 @@ class TestActionInterface(unittest.TestCase):
         self.assertEqual((state, result.battery_status), (GoalStatus.SUCCEEDED, 'Empty'))
 
     def test_charge_goal_when_full_succeeds_at_once(self):
+        self.discharge_below(98)
         self.run_goal(True)
         state, result, feedback = self.run_goal(True)
         self.assertEqual((state, result.battery_status), (GoalStatus.SUCCEEDED, 'Full'))
@@ -148,13 +158,36 @@ class TestActionInterface(unittest.TestCase):
         self.assertIn('MyRobot/BatteryStatus', text)
         self.status.wait_until(lambda m: m.current < 0, 5.0, 'discharging after the change')
 
+    def test_parameter_changed_against_a_discharging_goal_aborts_it(self):
+        self.discharge_below(90)
+        self.start_goal(False)
+        rospy.set_param(MODE_PARAM, 1)
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(10.0)))
+        self.assertEqual(self.client.get_state(), GoalStatus.ABORTED)
+        text = self.client.get_result().battery_status
+        self.assertIn('Aborted', text)
+        self.assertIn('charge', text)
+
+    def test_feedback_comes_at_least_once_a_second(self):
+        self.discharge_below(90)
+        arrivals = []
+        self.client.send_goal(battery_simGoal(charge_state=True),
+                              feedback_cb=lambda feedback: arrivals.append(time.monotonic()))
+        wait_for(lambda: len(arrivals) >= 8, 10.0, 'eight feedback messages')
+        self.client.cancel_goal()
+        gaps = [b - a for a, b in zip(arrivals, arrivals[1:8])]
+        self.assertLess(max(gaps), 1.0, 'feedback gaps %s' % gaps)
+
     # -- the mode parameter ----------------------------------------------------
 
     def test_parameter_drives_the_mode_within_an_update(self):
-        rospy.set_param(MODE_PARAM, True)
-        self.status.wait_until(lambda m: m.current > 0 or m.power_supply_status
-                               == BatteryState.POWER_SUPPLY_STATUS_FULL, 5.0, 'charging')
-        rospy.set_param(MODE_PARAM, 0)
+        self.discharge_below(60)
+        for value, wanted in ((True, 'Charging'), (0, 'Discharging'), (1, 'Charging'), (False, 'Discharging')):
+            before = self.state.count()
+            rospy.set_param(MODE_PARAM, value)
+            # the update that reads the parameter, or the one after it if one was under way
+            followed = self.state.next_after(before + 1)
+            self.assertEqual(followed.charging_state, wanted, '%r not followed within one update' % (value,))
         discharging = self.status.wait_until(lambda m: m.current < 0, 5.0, 'discharging')
         self.assertEqual(discharging.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
 
@@ -167,7 +200,8 @@ class TestActionInterface(unittest.TestCase):
                               and repr(junk) in m.msg, 10.0, 'an error naming %r' % (junk,))
             seen = self.status.count()
             after = self.status.next_after(seen + 1)
-            self.assertLessEqual(after.current, 0.0, 'still discharging (or empty) after %r' % (junk,))
+            self.assertLess(after.current, 0.0, 'still discharging (not holding) after %r' % (junk,))
+            self.assertEqual(after.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
         rospy.set_param(MODE_PARAM, 1)
         self.status.wait_until(lambda m: m.current > 0, 5.0, 'charging once the value is valid again')
 
@@ -197,7 +231,7 @@ class TestActionInterface(unittest.TestCase):
 
     def check_fields(self, msg):
         self.assertGreater(msg.header.stamp.to_sec(), 0.0)
-        self.assertTrue(msg.header.frame_id)
+        self.assertEqual(msg.header.frame_id, 'battery', 'the default ~frame_id')
         self.assertTrue(7.0 < msg.voltage < 12.7, 'a 3S Li-ion pack voltage: %g' % msg.voltage)
         self.assertTrue(0.0 < msg.temperature < 60.0)
         self.assertTrue(0.0 <= msg.percentage <= 1.0)

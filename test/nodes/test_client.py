@@ -12,9 +12,12 @@ import rostest
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
+from battery_simulator.srv import SetState
+
 from rostest_helpers import Recorder, wait_for
 
 CLIENT = ['rosrun', 'battery_simulator', 'battery_sim_client.py']
+NAN = float('nan')
 
 
 def run_client(*args, timeout_s=90.0):
@@ -58,9 +61,16 @@ class TestClient(unittest.TestCase):
         self.assertEqual(len(goals), 1, 'only the good goal reached the server: %s' % goals)
         self.assertIn('charge', goals[0])
 
-    def test_abort_and_timeout_exit_non_zero(self):
+    def put_at(self, percentage):
+        """Discharging at ``percentage`` (set_state: whatever earlier tests left)."""
         rospy.set_param('MyRobot/BatteryStatus', 0)
-        self.status.wait_until(lambda m: m.current < 0 and m.percentage < 0.6, 30.0, 'below 60 %')
+        rospy.wait_for_service('battery_simulator/set_state', 30.0)
+        self.assertTrue(rospy.ServiceProxy('battery_simulator/set_state', SetState)(percentage, NAN, NAN).success)
+        self.status.wait_until(lambda m: m.current < 0 and m.percentage <= percentage / 100.0, 30.0,
+                               'discharging at %g %%' % percentage)
+
+    def test_abort_and_timeout_exit_non_zero(self):
+        self.put_at(55.0)
         before = self.log.count()
         client = subprocess.Popen(CLIENT + ['1'], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
@@ -74,7 +84,7 @@ class TestClient(unittest.TestCase):
                 client.wait()
         self.assertEqual(client.returncode, 1, out + err)
         self.assertIn('Aborted', out)
-        self.status.wait_until(lambda m: m.current < 0 and m.percentage < 0.3, 30.0, 'below 30 %')
+        self.put_at(30.0)
         code, out, err = run_client('1', '--timeout', '0.5')
         self.assertEqual(code, 4, out + err)
         self.assertIn('timed out', out)

@@ -10,18 +10,21 @@ import actionlib
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
 from rostest_helpers import Recorder, wait_for
 
+ROBOT2 = 'robot2/battery_state_pub: Battery'
 
-def start_server(namespace):
+
+def start_server(namespace, time_scale=1000):
     """The action server as a child process in ``namespace`` (ended by pid)."""
     env = dict(os.environ, ROS_NAMESPACE=namespace)
     return subprocess.Popen(['rosrun', 'battery_simulator', 'battery_sim_server.py', '__name:=BatterySimServer',
-                             '_time_scale:=1000', '_initial_percentage:=80'],
+                             '_time_scale:=%g' % time_scale, '_initial_percentage:=80'],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
 
@@ -42,6 +45,7 @@ class TestNamespaceAndStale(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_namespace_and_stale')
         cls.log = Recorder('/rosout', Log)
+        cls.diagnostics = Recorder('/diagnostics', DiagnosticArray)
 
     def test_everything_resolves_under_the_group_namespace(self):
         status = Recorder('/robot1/battery_status', BatteryState)
@@ -56,16 +60,25 @@ class TestNamespaceAndStale(unittest.TestCase):
         self.assertEqual(rospy.get_param('/robot1/MyRobot/BatteryStatus'), 1)
         status.wait_until(lambda m: m.power_supply_status == BatteryState.POWER_SUPPLY_STATUS_FULL, 10.0, 'FULL')
 
+    def robot2_diagnostic(self, predicate, what):
+        seen = self.diagnostics.count()
+        found = self.diagnostics.wait_new(seen, lambda a: any(predicate(s) for s in a.status if s.name == ROBOT2),
+                                          10.0, what)
+        return [s for s in found.status if s.name == ROBOT2][0]
+
     def test_publisher_keeps_the_last_state_while_the_server_is_gone(self):
         status = Recorder('/robot2/battery_status', BatteryState)
         server = start_server('robot2')
         try:
             running = status.wait_until(lambda m: m.current < 0, 30.0, 'robot2 discharging')
             self.assertLess(running.percentage, 0.8)
+            self.robot2_diagnostic(lambda s: s.level == DiagnosticStatus.OK, 'robot2 diagnostics OK while fed')
         finally:
             stop(server)
         logged = self.log.count()
         self.log.wait_new(logged, lambda m: 'stale' in m.msg and m.level == Log.WARN, 30.0, 'a stale-data warning')
+        stale = self.robot2_diagnostic(lambda s: s.level == DiagnosticStatus.WARN, 'robot2 diagnostics WARN')
+        self.assertIn('Stale', stale.message)
         seen = status.count()
         last = status.next_after(seen)
         later = status.next_after(seen + 2)
@@ -74,8 +87,23 @@ class TestNamespaceAndStale(unittest.TestCase):
         server = start_server('robot2')
         try:
             status.wait_until(lambda m: abs(m.percentage - later.percentage) > 0.01, 30.0, 'updates resumed')
+            self.robot2_diagnostic(lambda s: s.level != DiagnosticStatus.WARN or 'Stale' not in s.message,
+                                   'robot2 diagnostics no longer stale')
         finally:
             stop(server)
+
+    def test_shutdown_preempts_the_active_goal(self):
+        server = start_server('robot3', time_scale=1)
+        try:
+            client = actionlib.SimpleActionClient('/robot3/battery_simulator', battery_simAction)
+            self.assertTrue(client.wait_for_server(rospy.Duration(30.0)), 'Could not connect to /robot3')
+            client.send_goal(battery_simGoal(charge_state=True))
+            wait_for(lambda: client.get_state() == GoalStatus.ACTIVE, 10.0, 'the goal active')
+        finally:
+            stop(server)
+        self.assertTrue(client.wait_for_result(rospy.Duration(10.0)), 'the goal did not end')
+        self.assertEqual(client.get_state(), GoalStatus.PREEMPTED)
+        self.assertIn('server shutting down', client.get_result().battery_status)
 
 
 if __name__ == '__main__':

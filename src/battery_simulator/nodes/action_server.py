@@ -182,7 +182,7 @@ class BatterySimServer:
         return where
 
     def start(self):
-        rospy.core.add_preshutdown_hook(self._on_shutdown)   # before rospy closes the topics
+        rospy.on_shutdown(self._on_shutdown)   # client hooks run before rospy closes the topics
         self._subscribers = [rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
                              rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
         self._services = [
@@ -213,7 +213,7 @@ class BatterySimServer:
             rospy.set_param('~' + name, getattr(self.params, name))
         return ReconfigureServer(BatterySimConfig, self._reconfigure_callback)
 
-    def _on_shutdown(self, reason=None):
+    def _on_shutdown(self):
         """Stop the worker: it preempts the active goal and saves the state."""
         self._stopping.set()
         self._wake_up()
@@ -236,14 +236,22 @@ class BatterySimServer:
                 self._wake = False
             if self._stopping.is_set():
                 break
-            self._take_goals()
-            self._update()
+            try:
+                self._take_goals()
+                self._update()
+            except rospy.ROSException as error:   # a topic closed under us: only at shutdown
+                if rospy.is_shutdown():
+                    break
+                rospy.logerr_throttle(10.0, 'battery update failed: %s', error)
             now = time.monotonic()
             if now >= next_update:
                 next_update = max(next_update + self._period_s, now)
-        self._preempt('server shutting down')
         with self._lock:
             state = self.model.export_state()
+        try:
+            self._preempt('server shutting down')
+        except rospy.ROSException:
+            pass   # too late: rospy has closed the action's topics
         self._store.save_now(state)
 
     def _update(self):

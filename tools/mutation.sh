@@ -1,0 +1,69 @@
+#!/bin/bash
+# Mutation score of the masterless unit tests on the ROS-free core and the
+# message mapping, with mutmut (a developer tool from PyPI, in a venv of its
+# own made with --system-site-packages; never a runtime dependency).
+#
+#   tools/mutation.sh                    # all four modules (about 20 minutes on 2 cores)
+#   tools/mutation.sh replay parameters  # only these
+#
+# It works in a copy (build/mutation/) with the generated message modules
+# beside the sources, so the mutants and not the checkout are what the tests import.
+set -eo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+export PATH="/usr/bin:$PATH"
+"$root/tools/build.sh" >/dev/null
+venv="$root/build/mutation-venv"
+if [ ! -x "$venv/bin/mutmut" ]; then
+  /usr/bin/python3 -m venv --system-site-packages "$venv"
+  "$venv/bin/pip" install -q 'mutmut==3.8.1'
+fi
+modules=("$@")
+[ ${#modules[@]} -gt 0 ] || modules=(battery_model battery_state parameters replay)
+work="$root/build/mutation"
+rm -rf "$work"
+mkdir -p "$work"
+cp -r "$root/src" "$root/test" "$root/config" "$work/"
+generated="$root/build/devel/lib/python3/dist-packages/battery_simulator"
+for package in msg srv cfg; do
+  [ -d "$generated/$package" ] && cp -r "$generated/$package" "$work/src/battery_simulator/"
+done
+paths=()
+for module in "${modules[@]}"; do
+  case $module in
+    battery_state) paths+=("src/battery_simulator/nodes/battery_state.py") ;;
+    *) paths+=("src/battery_simulator/core/$module.py") ;;
+  esac
+done
+cat > "$work/setup.cfg" <<CFG
+[mutmut]
+paths_to_mutate = $(IFS=,; echo "${paths[*]}")
+tests_dir = test/unit/
+also_copy = config/
+  test/
+pytest_add_cli_args_test_selection = test/unit/
+pytest_add_cli_args = -p no:cacheprovider -q --ignore=test/unit/test_packaging.py --ignore=test/unit/test_validation.py
+CFG
+cd "$work"
+unset ROS_PACKAGE_PATH CMAKE_PREFIX_PATH
+export PYTHONPATH="$work/src"
+"$venv/bin/mutmut" run --max-children 2 >mutmut.log 2>&1 || { tail -30 mutmut.log; exit 1; }
+"$venv/bin/mutmut" results --all true > results.txt 2>&1 || true
+/usr/bin/python3 - "$work/results.txt" "${modules[@]}" <<'PY'
+import collections, sys
+counts = collections.defaultdict(collections.Counter)
+for line in open(sys.argv[1]):
+    line = line.strip()
+    if ': ' not in line or '__mutmut_' not in line:
+        continue
+    name, status = line.rsplit(': ', 1)
+    module = name.split('.x_')[0].split('.')[-1] if '.x_' in name else name.split('.')[2]
+    counts[module][status] += 1
+print('%-16s %7s %7s %9s %7s %7s' % ('module', 'mutants', 'killed', 'survived', 'other', 'score'))
+for module in sorted(counts):
+    c = counts[module]
+    total = sum(c.values())
+    killed = c['killed'] + c['timeout']
+    print('%-16s %7d %7d %9d %7d %6.1f%%' % (module, total, killed, c['survived'], total - killed - c['survived'],
+                                               100.0 * killed / max(1, total)))
+PY
+echo "survivors: cd $work && $venv/bin/mutmut results; $venv/bin/mutmut show NAME"
