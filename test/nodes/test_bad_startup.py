@@ -14,8 +14,9 @@ import unittest
 
 import rospy
 import rostest
+from rosgraph_msgs.msg import Log
 
-from rostest_helpers import wait_for
+from rostest_helpers import Recorder, node_command, wait_for
 
 STARTUP_TIMEOUT_S = 60.0
 RUN_NUMBERS = itertools.count()
@@ -54,7 +55,7 @@ CASES = {
 def run_node(script, params):
     """Run a node of the package on this test's master until it exits; (exit code, output)."""
     name = 'bad_%s_%d' % (script.split('.')[0], next(RUN_NUMBERS))  # private params do not leak
-    command = ['rosrun', 'battery_simulator', script, '__name:=' + name] + list(params)
+    command = node_command(script) + ['__name:=' + name] + list(params)
     result = subprocess.run(command, capture_output=True, text=True, timeout=STARTUP_TIMEOUT_S)
     return result.returncode, result.stdout + result.stderr
 
@@ -63,6 +64,7 @@ class TestBadStartup(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
+        cls.log = Recorder('/rosout', Log)
         with concurrent.futures.ThreadPoolExecutor(max_workers=4) as pool:
             futures = {case: pool.submit(run_node, *CASES[case]) for case in CASES}
             cls.results = {case: future.result() for case, future in futures.items()}
@@ -115,11 +117,11 @@ class TestBadStartup(unittest.TestCase):
         name = 'text_numbers_%d' % next(RUN_NUMBERS)
         rospy.set_param('/%s/time_scale' % name, '1e9')          # as roslaunch passes time_scale:=1e9
         rospy.set_param('/%s/initial_percentage' % name, ' 50 ')
-        server = subprocess.Popen(['rosrun', 'battery_simulator', SERVER, '__name:=' + name],
+        server = subprocess.Popen(node_command(SERVER) + ['__name:=' + name],
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
-            wait_for(lambda: rospy.has_param('/%s/saved_state' % name) or server.poll() is not None,
-                     STARTUP_TIMEOUT_S, 'the server running')
+            wait_for(lambda: any(m.name == '/' + name and 'ready' in m.msg for m in self.log.since(0))
+                     or server.poll() is not None, STARTUP_TIMEOUT_S, 'the server ready')
             self.assertIsNone(server.poll(), 'the server refused numeric text (exit %s)' % server.poll())
         finally:
             if server.poll() is None:

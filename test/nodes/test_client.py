@@ -14,14 +14,15 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.srv import SetState
 
-from rostest_helpers import Recorder, wait_for
+from rostest_helpers import Recorder, node_command, wait_for
 
-CLIENT = ['rosrun', 'battery_simulator', 'battery_sim_client.py']
+CLIENT = node_command('battery_sim_client.py')
+ROSRUN_CLIENT = ['rosrun', 'battery_simulator', 'battery_sim_client.py']   # as a user types it
 NAN = float('nan')
 
 
-def run_client(*args, timeout_s=90.0):
-    result = subprocess.run(CLIENT + list(args), capture_output=True, text=True, timeout=timeout_s)
+def run_client(*args, timeout_s=90.0, command=CLIENT):
+    result = subprocess.run(command + list(args), capture_output=True, text=True, timeout=timeout_s)
     return result.returncode, result.stdout, result.stderr
 
 
@@ -40,7 +41,7 @@ class TestClient(unittest.TestCase):
         return [m.msg for m in self.log.since(index) if m.msg.startswith('goal: ')]
 
     def test_charge_then_discharge_exit_zero_with_the_result(self):
-        code, out, err = run_client('1')
+        code, out, err = run_client('1', command=ROSRUN_CLIENT)
         self.assertEqual(code, 0, out + err)
         self.assertIn('Result: Full', out)
         self.assertIn('%', out, 'progress is shown')
@@ -93,7 +94,7 @@ class TestClient(unittest.TestCase):
     def start_server(self, namespace):
         """A server of our own (no respawn), 80 %, real time: goals run long."""
         env = dict(os.environ, ROS_NAMESPACE=namespace)
-        server = subprocess.Popen(['rosrun', 'battery_simulator', 'battery_sim_server.py', '__name:=BatterySimServer',
+        server = subprocess.Popen(node_command('battery_sim_server.py') + ['__name:=BatterySimServer',
                                    '_time_scale:=1', '_initial_percentage:=80'], env=env,
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         self.addCleanup(self.end, server)

@@ -15,7 +15,7 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from rostest_helpers import Recorder, wait_for
+from rostest_helpers import Recorder, node_command, wait_for
 
 ROBOT2 = 'robot2/battery_state_pub: Battery'
 
@@ -23,7 +23,7 @@ ROBOT2 = 'robot2/battery_state_pub: Battery'
 def start_server(namespace, time_scale=1000):
     """The action server as a child process in ``namespace`` (ended by pid)."""
     env = dict(os.environ, ROS_NAMESPACE=namespace)
-    return subprocess.Popen(['rosrun', 'battery_simulator', 'battery_sim_server.py', '__name:=BatterySimServer',
+    return subprocess.Popen(node_command('battery_sim_server.py') + ['__name:=BatterySimServer',
                              '_time_scale:=%g' % time_scale, '_initial_percentage:=80'],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)

@@ -59,7 +59,7 @@ from battery_simulator.msg import (BatterySimState, battery_simAction, battery_s
 from battery_simulator.nodes import topics
 from battery_simulator.nodes.battery_state import to_sim_state
 from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number, wait_for_rosout)
+                                                    is_number, signals_held, wait_for_rosout)
 from battery_simulator.nodes.saved_state import StateStore
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
                                    SetStateResponse)
@@ -167,7 +167,8 @@ class BatterySimServer:
         self._server = actionlib.SimpleActionServer(topics.ACTION, battery_simAction, auto_start=False)
         self._server.register_goal_callback(self._wake_up)
         self._server.register_preempt_callback(self._wake_up)
-        self._worker = threading.Thread(target=self._run, name='battery_model')
+        # daemon: a node stopped during start-up must not hang on it; main() joins it otherwise
+        self._worker = threading.Thread(target=self._run, name='battery_model', daemon=True)
 
     def _resume(self):
         """Resume a saved state (after a respawn, or from ~state_file); where from, or None."""
@@ -182,7 +183,7 @@ class BatterySimServer:
         return where
 
     def start(self):
-        rospy.on_shutdown(self._on_shutdown)   # client hooks run before rospy closes the topics
+        rospy.on_shutdown(self.stop)   # client hooks run before rospy closes the topics
         self._subscribers = [rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
                              rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
         self._services = [
@@ -213,8 +214,8 @@ class BatterySimServer:
             rospy.set_param('~' + name, getattr(self.params, name))
         return ReconfigureServer(BatterySimConfig, self._reconfigure_callback)
 
-    def _on_shutdown(self):
-        """Stop the worker: it preempts the active goal and saves the state."""
+    def stop(self):
+        """Stop the worker: it preempts the active goal and saves the state (idempotent)."""
         self._stopping.set()
         self._wake_up()
         if self._worker.is_alive() and threading.current_thread() is not self._worker:
@@ -514,10 +515,13 @@ def _restart_status_timer_on_clock_jumps(action_server):
 
 
 def main():
-    rospy.init_node('BatterySimServer')
-    try:
-        settings = read_settings()
-    except StartupError as error:
-        exit_on_startup_error(error)
-    BatterySimServer(**settings).start()
+    with signals_held():
+        rospy.init_node('BatterySimServer')
+        try:
+            settings = read_settings()
+        except StartupError as error:
+            exit_on_startup_error(error)
+        server = BatterySimServer(**settings)
+        server.start()
     rospy.spin()
+    server.stop()

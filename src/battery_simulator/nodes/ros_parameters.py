@@ -1,5 +1,7 @@
 """Start-up parameter checks shared by the nodes: one fatal line, non-zero exit."""
+import contextlib
 import math
+import signal
 import sys
 import time
 
@@ -54,6 +56,23 @@ def wait_for_rosout(timeout_s=2.0):
         if publisher is not None and publisher.get_num_connections() > 0:
             return
         time.sleep(0.02)
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Hold SIGINT and SIGTERM while a node starts; deliver them once it is up.
+
+    rospy's handler makes XML-RPC calls to the master; run while the main
+    thread is inside one (start-up is full of them) it waits on the lock that
+    thread holds, and the node hangs for ever. Threads started meanwhile
+    inherit the mask, so a held signal reaches the main thread at a safe point.
+    """
+    held = {signal.SIGINT, signal.SIGTERM}
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def exit_on_startup_error(error):
