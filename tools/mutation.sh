@@ -22,7 +22,7 @@ modules=("$@")
 work="$root/build/mutation"
 rm -rf "$work"
 mkdir -p "$work"
-cp -r "$root/src" "$root/test" "$root/config" "$work/"
+cp -r "$root/src" "$root/test" "$root/config" "$root/docs" "$work/"
 generated="$root/build/devel/lib/python3/dist-packages/battery_simulator"
 for package in msg srv cfg; do
   [ -d "$generated/$package" ] && cp -r "$generated/$package" "$work/src/battery_simulator/"
@@ -36,12 +36,19 @@ for module in "${modules[@]}"; do
 done
 cat > "$work/setup.cfg" <<CFG
 [mutmut]
-paths_to_mutate = $(IFS=,; echo "${paths[*]}")
-tests_dir = test/unit/
-also_copy = config/
+source_paths =
+$(printf '  %s\n' "${paths[@]}")
+pytest_add_cli_args_test_selection =
+  test/unit/
+also_copy = src/
+  config/
+  docs/
   test/
-pytest_add_cli_args_test_selection = test/unit/
-pytest_add_cli_args = -p no:cacheprovider -q --ignore=test/unit/test_packaging.py --ignore=test/unit/test_validation.py
+pytest_add_cli_args =
+  -p
+  no:cacheprovider
+  --ignore=test/unit/test_packaging.py
+  --ignore=test/unit/test_summary.py
 CFG
 cd "$work"
 unset ROS_PACKAGE_PATH CMAKE_PREFIX_PATH

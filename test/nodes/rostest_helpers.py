@@ -1,5 +1,7 @@
 """Shared by the rostest nodes: bounded waits and a BatteryState recorder."""
 import os
+import signal
+import subprocess
 import threading
 import time
 
@@ -12,6 +14,17 @@ def node_command(script):
     """The command that runs one of the package's scripts directly: what rosrun runs, without
     rosrun's package search (about a second each, which adds up over many runs)."""
     return [os.path.join(rospkg.RosPack().get_path('battery_simulator'), 'scripts', script)]
+
+
+def stop_process(process, first_signal=signal.SIGINT, timeout_s=20.0):
+    """End a child started with start_new_session=True, by its pid: ``first_signal``, then SIGKILL."""
+    if process.poll() is None:
+        os.killpg(process.pid, first_signal)
+        try:
+            process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
 
 
 def wait_for(condition, timeout_s, what):

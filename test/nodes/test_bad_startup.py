@@ -7,7 +7,6 @@ before the checks; each check then reads its own node's output."""
 import concurrent.futures
 import itertools
 import os
-import signal
 import subprocess
 import tempfile
 import unittest
@@ -16,7 +15,7 @@ import rospy
 import rostest
 from rosgraph_msgs.msg import Log
 
-from rostest_helpers import Recorder, node_command, wait_for
+from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 STARTUP_TIMEOUT_S = 60.0
 RUN_NUMBERS = itertools.count()
@@ -124,13 +123,7 @@ class TestBadStartup(unittest.TestCase):
                      or server.poll() is not None, STARTUP_TIMEOUT_S, 'the server ready')
             self.assertIsNone(server.poll(), 'the server refused numeric text (exit %s)' % server.poll())
         finally:
-            if server.poll() is None:
-                os.killpg(server.pid, signal.SIGINT)
-                try:
-                    server.wait(timeout=20.0)
-                except subprocess.TimeoutExpired:
-                    os.killpg(server.pid, signal.SIGKILL)
-                    server.wait()
+            stop_process(server)
 
 
 if __name__ == '__main__':

@@ -14,7 +14,7 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.srv import SetState
 
-from rostest_helpers import Recorder, node_command, wait_for
+from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 CLIENT = node_command('battery_sim_client.py')
 ROSRUN_CLIENT = ['rosrun', 'battery_simulator', 'battery_sim_client.py']   # as a user types it
@@ -97,24 +97,14 @@ class TestClient(unittest.TestCase):
         server = subprocess.Popen(node_command('battery_sim_server.py') + ['__name:=BatterySimServer',
                                    '_time_scale:=1', '_initial_percentage:=80'], env=env,
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-        self.addCleanup(self.end, server)
+        self.addCleanup(stop_process, server)
         return server
-
-    @staticmethod
-    def end(process, sig=signal.SIGINT):
-        if process.poll() is None:
-            os.killpg(process.pid, sig)
-            try:
-                process.wait(timeout=15.0)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
-                process.wait()
 
     def start_client(self, namespace, *args):
         env = dict(os.environ, ROS_NAMESPACE=namespace)
         client = subprocess.Popen(CLIENT + list(args), env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                   text=True, start_new_session=True)
-        self.addCleanup(self.end, client, signal.SIGKILL)
+        self.addCleanup(stop_process, client, signal.SIGKILL)
         return client
 
     def wait_goal_running(self, logged, namespace):

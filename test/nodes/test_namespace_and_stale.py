@@ -2,7 +2,6 @@
 """rostest: sim.launch inside <group ns="robot1">, and battery_state_pub
 riding out a server that dies and comes back (robot2)."""
 import os
-import signal
 import subprocess
 import unittest
 
@@ -15,7 +14,7 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from rostest_helpers import Recorder, node_command, wait_for
+from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 ROBOT2 = 'robot2/battery_state_pub: Battery'
 
@@ -27,16 +26,6 @@ def start_server(namespace, time_scale=1000):
                              '_time_scale:=%g' % time_scale, '_initial_percentage:=80'],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-
-
-def stop(process):
-    if process.poll() is None:
-        os.killpg(process.pid, signal.SIGINT)
-        try:
-            process.wait(timeout=15.0)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
 
 
 class TestNamespaceAndStale(unittest.TestCase):
@@ -74,7 +63,7 @@ class TestNamespaceAndStale(unittest.TestCase):
             self.assertLess(running.percentage, 0.8)
             self.robot2_diagnostic(lambda s: s.level == DiagnosticStatus.OK, 'robot2 diagnostics OK while fed')
         finally:
-            stop(server)
+            stop_process(server)
         logged = self.log.count()
         self.log.wait_new(logged, lambda m: 'stale' in m.msg and m.level == Log.WARN, 30.0, 'a stale-data warning')
         stale = self.robot2_diagnostic(lambda s: s.level == DiagnosticStatus.WARN, 'robot2 diagnostics WARN')
@@ -90,7 +79,7 @@ class TestNamespaceAndStale(unittest.TestCase):
             self.robot2_diagnostic(lambda s: s.level != DiagnosticStatus.WARN or 'Stale' not in s.message,
                                    'robot2 diagnostics no longer stale')
         finally:
-            stop(server)
+            stop_process(server)
 
     def test_shutdown_preempts_the_active_goal(self):
         server = start_server('robot3', time_scale=1)
@@ -100,7 +89,7 @@ class TestNamespaceAndStale(unittest.TestCase):
             client.send_goal(battery_simGoal(charge_state=True))
             wait_for(lambda: client.get_state() == GoalStatus.ACTIVE, 10.0, 'the goal active')
         finally:
-            stop(server)
+            stop_process(server)
         self.assertTrue(client.wait_for_result(rospy.Duration(10.0)), 'the goal did not end')
         self.assertEqual(client.get_state(), GoalStatus.PREEMPTED)
         self.assertIn('server shutting down', client.get_result().battery_status)

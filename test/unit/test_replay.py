@@ -1,4 +1,5 @@
 """The battery_replay CLI (python3 -m battery_simulator.core.replay)."""
+import contextlib
 import csv
 import io
 import subprocess
@@ -8,15 +9,23 @@ from pathlib import Path
 import pytest
 
 from battery_simulator.core.parameters import preset
-from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, read_profile, replay
+from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, main, read_profile, replay
 
 SOURCE = Path(__file__).resolve().parents[2] / 'src'
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, '-m', 'battery_simulator.core.replay', *map(str, args)],
-                          capture_output=True, text=True, timeout=60,
-                          env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
+    """battery_replay.py's main() in this process (so mutation testing sees it): (returncode, stdout, stderr)."""
+    stdout, stderr = io.StringIO(), io.StringIO()
+    code = 0
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        try:
+            main([str(a) for a in args])
+        except SystemExit as exit_:
+            code = exit_.code if isinstance(exit_.code, int) else 1
+            if isinstance(exit_.code, str):
+                print(exit_.code, file=sys.stderr)
+    return subprocess.CompletedProcess(args, code, stdout.getvalue(), stderr.getvalue())
 
 
 def test_current_profile_to_stdout(tmp_path):
@@ -95,9 +104,7 @@ def test_equal_times_are_a_zero_length_segment_and_a_bom_is_accepted(tmp_path):
 def test_long_rest_and_long_load_finish_at_once(tmp_path):
     profile = tmp_path / 'rest.csv'
     profile.write_text('time,current\n0,0\n1e9,-1\n2e9,0\n')
-    result = subprocess.run([sys.executable, '-m', 'battery_simulator.core.replay', str(profile),
-                             '--max-step', '0.001'], capture_output=True, text=True, timeout=20,
-                            env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
+    result = run_cli(profile, '--max-step', '0.001')
     assert result.returncode == 0, result.stderr
     rows = list(csv.DictReader(io.StringIO(result.stdout)))
     assert rows[1]['soc'] == '1.00000' and rows[2]['status'] == 'EMPTY'

@@ -58,8 +58,8 @@ from battery_simulator.msg import (BatterySimState, battery_simAction, battery_s
                                    battery_simResult)
 from battery_simulator.nodes import topics
 from battery_simulator.nodes.battery_state import to_sim_state
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number, signals_held, wait_for_rosout)
+from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, init_node, is_number,
+                                                    signals_held, wait_for_rosout)
 from battery_simulator.nodes.saved_state import StateStore
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
                                    SetStateResponse)
@@ -516,12 +516,7 @@ def _restart_status_timer_on_clock_jumps(action_server):
 
 def main():
     with signals_held():
-        rospy.init_node('BatterySimServer')
-        try:
-            settings = read_settings()
-        except StartupError as error:
-            exit_on_startup_error(error)
-        server = BatterySimServer(**settings)
+        server = BatterySimServer(**init_node('BatterySimServer', read_settings))
         server.start()
     rospy.spin()
     server.stop()

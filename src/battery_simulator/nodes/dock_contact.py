@@ -22,8 +22,7 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 
 from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number)
+from battery_simulator.nodes.ros_parameters import checked_param, init_node, is_number
 
 REPEAT_PERIOD_S = 0.5
 
@@ -73,9 +72,4 @@ class DockContact:
 
 
 def main():
-    rospy.init_node('battery_dock_contact')
-    try:
-        settings = read_settings()
-    except StartupError as error:
-        exit_on_startup_error(error)
-    DockContact(**settings).spin()
+    DockContact(**init_node('battery_dock_contact', read_settings)).spin()

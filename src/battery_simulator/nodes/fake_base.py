@@ -25,8 +25,7 @@ from geometry_msgs.msg import Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
 from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number)
+from battery_simulator.nodes.ros_parameters import checked_param, init_node, is_number
 
 
 def read_settings():
@@ -112,9 +111,4 @@ class FakeBase:
 
 
 def main():
-    rospy.init_node('fake_base')
-    try:
-        settings = read_settings()
-    except StartupError as error:
-        exit_on_startup_error(error)
-    FakeBase(**settings).spin()
+    FakeBase(**init_node('fake_base', read_settings)).spin()

@@ -33,8 +33,7 @@ from std_msgs.msg import Bool, String
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
 from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number)
+from battery_simulator.nodes.ros_parameters import checked_param, init_node, is_number
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 CONTROL_RATE_HZ = 20.0
@@ -181,9 +180,4 @@ class PatrolAndDock:
 
 
 def main():
-    rospy.init_node('patrol_and_dock')
-    try:
-        settings = read_settings()
-    except StartupError as error:
-        exit_on_startup_error(error)
-    PatrolAndDock(**settings).spin()
+    PatrolAndDock(**init_node('patrol_and_dock', read_settings)).spin()

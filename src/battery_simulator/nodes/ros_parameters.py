@@ -75,6 +75,15 @@ def signals_held():
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+def init_node(name, read_settings):
+    """rospy.init_node(name), then read_settings(): its settings, or one fatal line and exit 1."""
+    rospy.init_node(name)
+    try:
+        return read_settings()
+    except StartupError as error:
+        exit_on_startup_error(error)
+
+
 def exit_on_startup_error(error):
     """Log one fatal line and exit 1 (roslaunch shows the node as died)."""
     rospy.logfatal('%s', error)

@@ -37,8 +37,8 @@ from std_msgs.msg import Bool
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.msg import BatterySimState
 from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, exit_on_startup_error,
-                                                    is_number, signals_held)
+from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, init_node, is_number,
+                                                    signals_held)
 
 DIAGNOSTIC_PERIOD_S = 0.5   # diagnostics at least this often (wall time: a paused sim clock does not stop them)
 
@@ -205,10 +205,5 @@ def battery_level(state, stale, low, critical):
 
 def main():
     with signals_held():
-        rospy.init_node('battery_state_pub')
-        try:
-            settings = read_settings()
-        except StartupError as error:
-            exit_on_startup_error(error)
-        publisher = BatteryStatePublisher(**settings)
+        publisher = BatteryStatePublisher(**init_node('battery_state_pub', read_settings))
     publisher.spin()
