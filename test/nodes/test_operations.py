@@ -23,6 +23,8 @@ MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN = float('nan')
 KEYS = ['Voltage (V)', 'Current (A)', 'Charge (Ah)', 'Capacity (Ah)', 'Design Capacity (Ah)', 'Percentage (%)',
         'Temperature (C)', 'Charging State', 'Health', 'Cycle Count', 'State of Health (%)', 'Time Remaining (min)']
+DEFAULTS = {'load_current_a': 1.5, 'time_scale': 10.0, 'load_power_w': 0.0, 'charge_current_a': 1.5,
+            'ambient_temperature_c': 25.0, 'drive_power_w_per_mps': 50.0, 'turn_power_w_per_radps': 4.0}
 SIGMA_V, SIGMA_A = 0.02, 0.05   # the default preset's voltage_noise_v, current_noise_a
 
 
@@ -181,23 +183,28 @@ class TestOperations(unittest.TestCase):
 
     # -- dynamic_reconfigure -------------------------------------------------------
 
-    def drain_rate(self):
-        """Percent per wall second over 1 s of updates."""
+    def drain_rate(self, current_a):
+        """Charge drawn per second of stamps over 2 s of updates, once the model draws ``current_a``."""
         start = self.state.count()
-        first = self.state.next_after(start)
+        first = self.state.wait_new(start, lambda m: abs(m.battery.current + current_a) < 1e-6, 5.0,
+                                    'the model drawing %g A' % current_a)
         last = self.state.wait_new(start, lambda m: (m.battery.header.stamp - first.battery.header.stamp).to_sec()
-                                   >= 1.0, 5.0, '1 s of updates')
-        return (first.battery.percentage - last.battery.percentage) / (
+                                   >= 2.0, 10.0, '2 s of updates')
+        self.assertEqual(last.charging_state, 'Discharging', 'discharging throughout')
+        return (first.battery.charge - last.battery.charge) / (
             last.battery.header.stamp - first.battery.header.stamp).to_sec()
+
+    def tearDown(self):
+        self.reconfigure.update_configuration(DEFAULTS)   # whatever a failed test left
 
     def test_live_tuning_changes_the_model_and_refuses_bad_values(self):
         self.set_state(90.0, NAN, NAN)
-        before = self.drain_rate()
+        before = self.drain_rate(1.5)
         config = self.reconfigure.update_configuration({'load_current_a': 3.0})
         self.assertEqual(config['load_current_a'], 3.0)
-        self.assertAlmostEqual(self.drain_rate() / before, 2.0, delta=0.1, msg='a doubled load doubles the drain')
+        self.assertAlmostEqual(self.drain_rate(3.0) / before, 2.0, delta=0.1, msg='a doubled load doubles the drain')
         config = self.reconfigure.update_configuration({'time_scale': 20.0})
-        self.assertAlmostEqual(self.drain_rate() / before, 4.0, delta=0.2, msg='twice the time scale')
+        self.assertAlmostEqual(self.drain_rate(3.0) / before, 4.0, delta=0.2, msg='twice the time scale')
         refused = self.reconfigure.update_configuration({'load_current_a': 500.0})
         self.assertEqual(refused['load_current_a'], 3.0, 'a value beyond the datasheet is refused')
         changes = {'load_power_w': 5.0, 'charge_current_a': 2.0, 'ambient_temperature_c': 30.0,
@@ -208,9 +215,6 @@ class TestOperations(unittest.TestCase):
         rospy.set_param(MODE_PARAM, 1)
         charging = self.state.wait_until(lambda m: m.charging_state == 'Charging', 5.0, 'charging')
         self.assertAlmostEqual(charging.battery.current, 2.0, places=3)
-        self.reconfigure.update_configuration({'load_current_a': 1.5, 'time_scale': 10.0, 'load_power_w': 0.0,
-                                               'charge_current_a': 1.5, 'ambient_temperature_c': 25.0,
-                                               'drive_power_w_per_mps': 50.0, 'turn_power_w_per_radps': 4.0})
 
 
 if __name__ == '__main__':
