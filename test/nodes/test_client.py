@@ -41,10 +41,12 @@ class TestClient(unittest.TestCase):
         return [m.msg for m in self.log.since(index) if m.msg.startswith('goal: ')]
 
     def test_charge_then_discharge_exit_zero_with_the_result(self):
+        self.put_at(90.0)   # goals start near their ends
         code, out, err = run_client('1', command=ROSRUN_CLIENT)
         self.assertEqual(code, 0, out + err)
         self.assertIn('Result: Full', out)
         self.assertIn('%', out, 'progress is shown')
+        self.put_at(10.0)
         code, out, err = run_client('discharge')
         self.assertEqual(code, 0, out + err)
         self.assertIn('Result: Empty', out)
@@ -55,6 +57,7 @@ class TestClient(unittest.TestCase):
             code, out, err = run_client(*bad)
             self.assertEqual(code, 2, 'exit code for %r' % bad)
             self.assertIn('usage', err.lower())
+        self.put_at(95.0)
         code, _, _ = run_client('charge')   # the goal topic does see a real goal
         self.assertEqual(code, 0)
         wait_for(lambda: self.goals_since(before), 10.0, 'the server to log the good goal')

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: motion and payload load, charger contact and docking, the cut-off
-gate and the low/critical events (test/robot_loop.test, time_scale 10, rate 0.2)."""
+gate and the low/critical events (test/robot_loop.test, time_scale 20, rate 0.2)."""
 import math
 import threading
 import time
@@ -20,7 +20,7 @@ from battery_simulator.msg import BatterySimState, battery_simAction, battery_si
 from battery_simulator.srv import SetLoad, SetState
 from rostest_helpers import Recorder, wait_for
 
-TIME_SCALE = 10.0
+TIME_SCALE = 20.0
 MODE_PARAM = 'MyRobot/BatteryStatus'
 DRIVE_W_PER_MPS = 50.0      # the default preset's drive power
 CHARGING = BatteryState.POWER_SUPPLY_STATUS_CHARGING
