@@ -29,7 +29,7 @@ MISSION = [(1800, -1.5), (600, -0.3), (900, -4.0), (1200, 1.0), (1500, -2.0), (1
 
 
 def test_two_hour_profile_does_not_depend_on_the_step_size():
-    fine = run_profile(PACK, MISSION, 0.01)
+    fine = run_profile(PACK, MISSION, 0.1)
     coarse = run_profile(PACK, MISSION, 10.0)
     assert abs(fine.state_of_charge - coarse.state_of_charge) <= 0.001, \
         'SOC %.5f vs %.5f' % (fine.state_of_charge, coarse.state_of_charge)
@@ -42,7 +42,7 @@ def test_two_hour_profile_does_not_depend_on_the_step_size():
                 min_size=1, max_size=6),
        st.sampled_from([0.5, 2.0, 5.0, 20.0]))
 def test_any_profile_gives_the_same_result_at_any_step(profile, dt_s):
-    reference = run_profile(CELL, profile, 0.25, soc=0.6)
+    reference = run_profile(CELL, profile, 1.0, soc=0.6)
     other = run_profile(CELL, profile, dt_s, soc=0.6)
     if reference.status is Status.EMPTY or other.status is Status.EMPTY:
         return  # where the cut-off falls within a step depends on the step
