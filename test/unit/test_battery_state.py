@@ -3,6 +3,8 @@ import math
 
 import pytest
 
+genpy = pytest.importorskip('genpy')
+
 from battery_simulator.core.battery_model import BatteryModel, Mode
 from battery_simulator.core.parameters import preset
 
@@ -73,3 +75,15 @@ def test_sim_state_carries_what_diagnostics_and_the_gate_need():
     for mode, soc, text in ((Mode.CHARGE, 0.5, 'Charging'), (Mode.CHARGE, 1.0, 'Full'), (Mode.IDLE, 0.5, 'Not Charging')):
         state = battery_state.to_sim_state(BatteryModel(PACK, state_of_charge=soc, mode=mode).snapshot(), PACK)
         assert state.charging_state == text
+
+
+def test_stamps_and_counts_pass_through():
+    stamp = genpy.Time(1234, 5678)
+    model = BatteryModel(PACK, state_of_charge=0.5, mode=Mode.DISCHARGE)
+    model.step(3600.0)
+    snapshot = model.snapshot()
+    assert battery_state.to_battery_state(snapshot, PACK, stamp=stamp).header.stamp == stamp
+    state = battery_state.to_sim_state(snapshot, PACK, stamp=stamp)
+    assert state.battery.header.stamp == stamp
+    assert state.battery.voltage == pytest.approx(snapshot.voltage_v)
+    assert state.cycle_count == pytest.approx(PACK.load_current_a / PACK.cell_capacity_ah, rel=1e-6)  # 1 h at 1.5 A

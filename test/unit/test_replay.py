@@ -145,3 +145,10 @@ def test_a_closed_pipe_prints_no_traceback(tmp_path):
                             env={'PYTHONPATH': str(SOURCE), 'PATH': '/usr/bin:/bin'})
     assert len(result.stdout.splitlines()) == 2
     assert 'Traceback' not in result.stderr and 'BrokenPipe' not in result.stderr, result.stderr
+
+
+def test_an_empty_file_names_the_missing_header(tmp_path):
+    profile = tmp_path / 'empty.csv'
+    profile.write_text('')
+    with pytest.raises(ProfileError, match='got nothing'):
+        read_profile(profile)
