@@ -80,10 +80,10 @@ def test_sim_state_carries_what_diagnostics_and_the_gate_need():
 def test_stamps_and_counts_pass_through():
     stamp = genpy.Time(1234, 5678)
     model = BatteryModel(PACK, state_of_charge=0.5, mode=Mode.DISCHARGE)
-    model.step(3600.0)
+    model.step(1800.0)
     snapshot = model.snapshot()
     assert battery_state.to_battery_state(snapshot, PACK, stamp=stamp).header.stamp == stamp
     state = battery_state.to_sim_state(snapshot, PACK, stamp=stamp)
     assert state.battery.header.stamp == stamp
     assert state.battery.voltage == pytest.approx(snapshot.voltage_v)
-    assert state.cycle_count == pytest.approx(PACK.load_current_a / PACK.cell_capacity_ah, rel=1e-6)  # 1 h at 1.5 A
+    assert state.cycle_count == pytest.approx(0.5 * PACK.load_current_a / PACK.cell_capacity_ah, rel=1e-6)  # 0.5 h at 1.5 A
