@@ -222,6 +222,7 @@ class BatterySimServer:
             self._worker.join(timeout=2.0)
 
     def _wake_up(self):
+        """Update and publish now (self._lock is re-entrant: callers may hold it)."""
         with self._lock:
             self._wake = True
             self._lock.notify_all()
@@ -313,8 +314,7 @@ class BatterySimServer:
             rospy.set_param(topics.MODE_PARAM, 1 if mode is Mode.CHARGE else 0)
             self._mode_source = source
             self.model.set_mode(mode)
-            self._wake = True
-            self._lock.notify_all()
+            self._wake_up()
 
     def _log_invalid_mode(self, raw_mode):
         """An error at once for each new bad value, then every INVALID_LOG_PERIOD_S while it stays."""
@@ -438,8 +438,7 @@ class BatterySimServer:
                 self._payloads.pop(name, None)
             self.model.set_extra_load('payload', power_w=sum(self._payloads.values()))
             total = sum(self._payloads.values())
-            self._wake = True
-            self._lock.notify_all()
+            self._wake_up()
         return SetLoadResponse(success=True, message='%s: %g W; payload loads now %g W' % (name, power_w, total))
 
     def _set_state(self, request):
@@ -450,8 +449,7 @@ class BatterySimServer:
             with self._lock:
                 self.model.set_state(None if percentage is None else percentage / 100.0,
                                      given(request.temperature_c), given(request.state_of_health))
-                self._wake = True
-                self._lock.notify_all()
+                self._wake_up()
         except ValueError as error:
             return SetStateResponse(success=False, message=str(error).replace('state_of_charge', 'percentage/100'))
         return SetStateResponse(success=True, message='state set')
@@ -461,8 +459,7 @@ class BatterySimServer:
             self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
                                  max(1e-9, 1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
             self.model.discharged_ah = 0.0
-            self._wake = True
-            self._lock.notify_all()
+            self._wake_up()
         return TriggerResponse(success=True, message='reset to %.1f %%, mode kept' % (100.0 * self._initial_soc))
 
     def _inject_fault(self, request):
@@ -476,8 +473,7 @@ class BatterySimServer:
                 self._faults.discard(request.fault)
             if request.fault == 'charger_fault':
                 self.model.set_charger_fault(request.active)
-            self._wake = True
-            self._lock.notify_all()
+            self._wake_up()
         rospy.logwarn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
         return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
                                                                       else 'cleared'))
@@ -498,8 +494,7 @@ class BatterySimServer:
                 rospy.logerr('dynamic_reconfigure: %s; keeping the previous values', error)
                 params = self.params
             self.params = self.model.params = params
-            self._wake = True
-            self._lock.notify_all()
+            self._wake_up()
         for name in LIVE_PARAMETERS:
             config[name] = getattr(params, name)
         return config

@@ -80,7 +80,6 @@ class BatteryStatePublisher:
             'low': LevelAlarm(low_percentage, hysteresis),
             'critical': LevelAlarm(critical_percentage, hysteresis),
         }
-        self._low_percentage, self._critical_percentage = low_percentage, critical_percentage
         self._pub = rospy.Publisher(topics.BATTERY_STATUS, BatteryState, queue_size=10)
         self._alarm_pubs = {
             'low': rospy.Publisher(topics.BATTERY_LOW, Bool, queue_size=1, latch=True),
@@ -156,7 +155,8 @@ class BatteryStatePublisher:
             status.summary(DiagnosticStatus.WARN, 'no data from the battery_simulator server yet')
             return status
         battery = latest.battery
-        level, message = battery_level(latest, stale, self._low_percentage, self._critical_percentage)
+        level, message = battery_level(latest, stale, self._alarms['low'].threshold,
+                                       self._alarms['critical'].threshold)
         status.summary(level, message)
         remaining = latest.time_remaining_s
         for key, value in (
