@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: demo.launch runs PATROL -> GO_TO_DOCK -> CHARGING -> UNDOCK -> PATROL
-with the battery never empty (test/demo.test, time_scale 120)."""
+with the battery never empty (test/demo.test: time_scale 240, speed 0.6 m/s)."""
 import unittest
 
 import rospy

@@ -184,12 +184,12 @@ class TestOperations(unittest.TestCase):
     # -- dynamic_reconfigure -------------------------------------------------------
 
     def drain_rate(self, current_a):
-        """Charge drawn per second of stamps over 2 s of updates, once the model draws ``current_a``."""
+        """Charge drawn per second of stamps over 1 s of updates, once the model draws ``current_a``."""
         start = self.state.count()
         first = self.state.wait_new(start, lambda m: abs(m.battery.current + current_a) < 1e-6, 5.0,
                                     'the model drawing %g A' % current_a)
         last = self.state.wait_new(start, lambda m: (m.battery.header.stamp - first.battery.header.stamp).to_sec()
-                                   >= 2.0, 10.0, '2 s of updates')
+                                   >= 1.0, 10.0, '1 s of updates')
         self.assertEqual(last.charging_state, 'Discharging', 'discharging throughout')
         return (first.battery.charge - last.battery.charge) / (
             last.battery.header.stamp - first.battery.header.stamp).to_sec()
