@@ -297,9 +297,12 @@ def load_yaml(path):
     return from_mapping(values, origin=str(path))
 
 
-def preset_directory():
-    """The folder of preset YAML files, in the source/devel tree or the install space."""
-    here = Path(__file__).resolve()
+def preset_directory(module_path=__file__):
+    """The folder of preset YAML files, in the source/devel tree or the install space.
+
+    ``module_path`` is where this module lives (a parameter so tests can try layouts).
+    """
+    here = Path(module_path).resolve()
     candidates = [here.parents[3] / 'config' / 'presets']
     if len(here.parents) > 5:  # <prefix>/lib/python3/dist-packages/battery_simulator/core/
         candidates.append(here.parents[5] / 'share' / 'battery_simulator' / 'config' / 'presets')
