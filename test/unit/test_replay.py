@@ -2,13 +2,16 @@
 import contextlib
 import csv
 import io
+import math
+import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from battery_simulator.core.parameters import preset
+from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.parameters import preset, preset_names
 from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, main, read_profile, replay
 
 SOURCE = Path(__file__).resolve().parents[2] / 'src'
@@ -152,3 +155,184 @@ def test_an_empty_file_names_the_missing_header(tmp_path):
     profile.write_text('')
     with pytest.raises(ProfileError, match='got nothing'):
         read_profile(profile)
+
+
+HELP = '''usage: battery_replay.py [-h] [--preset PRESET | --config CONFIG] [--soc SOC]
+                         [--max-step MAX_STEP] [-o OUTPUT] [--list-presets]
+                         [profile]
+
+Replay a CSV load profile through the battery model.
+
+positional arguments:
+  profile               CSV with time (s) and current (A) or power (W)
+
+options:
+  -h, --help            show this help message and exit
+  --preset PRESET       battery preset (default lg_hg2_3s1p)
+  --config CONFIG       YAML file of battery parameters
+  --soc SOC             initial state of charge, 0..1 (default 1)
+  --max-step MAX_STEP   longest model step, s (default 1, at least 0.001)
+  -o OUTPUT, --output OUTPUT
+                        output CSV file (default: stdout)
+  --list-presets        list the presets and exit
+'''
+
+
+def profile_file(tmp_path, text='time,current\n0,-1\n1,-1\n'):
+    path = tmp_path / 'p.csv'
+    path.write_text(text)
+    return path
+
+
+def test_help_text(monkeypatch):
+    monkeypatch.setenv('COLUMNS', '100')
+    result = run_cli('--help')
+    assert result.returncode == 0 and result.stdout == HELP
+
+
+def test_usage_errors_are_one_line_naming_the_problem(tmp_path):
+    result = run_cli()
+    assert result.returncode == 2
+    assert result.stderr.splitlines()[-1] == 'battery_replay.py: error: the profile CSV is required'
+    profile = profile_file(tmp_path)
+    result = run_cli(profile, '--soc', '1.5')
+    assert result.stderr.splitlines()[-1] == ('battery_replay.py: error: argument --soc: '
+                                              '1.5 is not in [0, 1] (a fraction: 0.5 = half full)')
+    result = run_cli(profile, '--max-step', '0')
+    assert result.stderr.splitlines()[-1] == ('battery_replay.py: error: argument --max-step: '
+                                              '0 is not a number of seconds >= 0.001')
+
+
+def test_list_presets_needs_no_profile():
+    result = run_cli('--list-presets')
+    assert result.returncode == 0 and result.stdout == '\n'.join(preset_names()) + '\n'
+    assert result.stdout.startswith('kobuki_4s2p\nlg_hg2_3s1p\n')
+
+
+@pytest.mark.parametrize('soc, first_row', [
+    ('0', ['0', '2.8000', '0.0000', '0.00000', '25.00', 'NOT_CHARGING']),
+    ('1', ['0', '4.2000', '0.0000', '1.00000', '25.00', 'NOT_CHARGING']),
+])
+def test_soc_bounds_are_allowed_and_the_pack_starts_at_rest(tmp_path, soc, first_row):
+    config = tmp_path / 'cell.yaml'
+    config.write_text('preset: lg_hg2_cell\n')
+    result = run_cli(profile_file(tmp_path, 'time,current\n0,0\n1,0\n'), '--config', config, '--soc', soc)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[1].split(',') == first_row
+
+
+def test_one_line_errors_from_the_cli(tmp_path):
+    profile = profile_file(tmp_path)
+    result = run_cli(profile, '--preset', 'turbo')
+    assert result.stderr == "battery_replay: parameter preset = 'turbo' is invalid: must be one of %s\n" % (
+        ', '.join(preset_names()))
+    out = tmp_path / 'no' / 'such' / 'dir.csv'
+    result = run_cli(profile, '-o', out)
+    assert result.stderr == 'battery_replay: cannot write %s: No such file or directory\n' % out
+    absent = tmp_path / 'absent.csv'
+    result = run_cli(absent)
+    assert result.stderr == 'battery_replay: %s: cannot read: No such file or directory\n' % absent
+
+
+def test_output_file_has_unix_line_ends(tmp_path):
+    out = tmp_path / 'out.csv'
+    assert run_cli(profile_file(tmp_path), '-o', out).returncode == 0
+    assert out.read_bytes().startswith(b'time,voltage,current,soc,temperature,status\n0,')
+    assert b'\r' not in out.read_bytes()
+
+
+def test_large_times_keep_the_exponent_format(tmp_path):
+    result = run_cli(profile_file(tmp_path, 'time,current\n0,0\n1e9,0\n'))
+    assert [line.split(',')[0] for line in result.stdout.splitlines()] == ['time', '0', '1e+09']
+
+
+class _ClosedPipe(io.StringIO):
+    """A stdout whose reader has gone."""
+
+    def __init__(self, fd):
+        super().__init__()
+        self.fd = fd
+
+    def write(self, text):
+        raise BrokenPipeError
+
+    def fileno(self):
+        return self.fd
+
+
+def test_a_closed_pipe_sends_the_rest_to_devnull(tmp_path, monkeypatch):
+    read_end, write_end = os.pipe()
+    try:
+        monkeypatch.setattr(sys, 'stdout', _ClosedPipe(write_end))
+        main([str(profile_file(tmp_path))])
+        assert os.fstat(write_end).st_rdev == os.stat(os.devnull).st_rdev
+    finally:
+        os.close(read_end)
+        os.close(write_end)
+
+
+def stepped_by_hand(params, segments, step_s, state_of_charge=1.0):
+    """The rows replay() should give: each (duration, kind, value) held in steps of at most step_s."""
+    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    time_s, rows = 0.0, []
+    for duration, kind, value in segments:
+        steps = max(1, int(math.ceil(duration / step_s)))
+        for _ in range(steps):
+            model.step(duration / steps, **{kind + ('_a' if kind == 'current' else '_w'): value})
+        time_s += duration
+        rows.append('%.4f' % model.voltage_v)
+    return rows
+
+
+def test_segments_are_cut_into_max_step_pieces():
+    params = preset('lg_hg2_3s1p')
+    profile = [(0.0, 'power', -60.0), (1800.0, 'current', 1.0), (9000.0, 'power', -30.0), (9600.0, 'current', 0.0)]
+    segments = [(1800.0, 'power', -60.0), (7200.0, 'current', 1.0), (600.0, 'power', -30.0)]
+    for max_step in (1.0, 600.0):
+        rows = list(replay(params, profile, state_of_charge=0.5, max_step_s=max_step))
+        assert [row[1] for row in rows[1:]] == stepped_by_hand(params, segments, max_step, 0.5), max_step
+    default_rows = list(replay(params, profile, state_of_charge=0.5))
+    assert [row[1] for row in default_rows[1:]] == stepped_by_hand(params, segments, 1.0, 0.5)
+    coarse = stepped_by_hand(params, segments, 1800.0, 0.5)
+    assert coarse != stepped_by_hand(params, segments, 1.0, 0.5), 'the step size must matter for this profile'
+
+
+def test_the_cli_passes_max_step_on(tmp_path):
+    profile = profile_file(tmp_path, 'time,power\n0,-60\n1800,0\n')
+    coarse = run_cli(profile, '--max-step', '1800').stdout.splitlines()[2].split(',')[1]
+    fine = run_cli(profile).stdout.splitlines()[2].split(',')[1]
+    params = preset('lg_hg2_3s1p')
+    assert coarse == stepped_by_hand(params, [(1800.0, 'power', -60.0)], 1800.0)[0]
+    assert fine == stepped_by_hand(params, [(1800.0, 'power', -60.0)], 1.0)[0] != coarse
+
+
+@pytest.mark.parametrize('text, error', [
+    ('stamp,current\n0,1\n', '{path} line 1: the header must name a "time" column and a "current" or "power" '
+                             'column, got stamp,current'),
+    ('time,amps\n0,1\n', '{path} line 1: the header must name a "time" column and a "current" or "power" '
+                         'column, got time,amps'),
+    ('time,current\n0,-1\n10,abc\n', '{path} line 3: expected numbers in "time" and "current", got 10,abc'),
+    ('time,power\n0,-1\n10\n', '{path} line 3: expected numbers in "time" and "power", got 10'),
+    ('time,current\n0,-1\n5,-2\n4,-1\n', '{path} line 4: time 4 s is before the previous row\'s 5 s'),
+    ('time,current\n0,-1\n5,nan\n', '{path} line 3: values must be finite, got 5,nan'),
+    ('time,current\n', '{path}: no data rows after the header'),
+    ('time,current\n0,"' + 'x' * 200000 + '"\n', '{path}: not a CSV file: field larger than field limit (131072)'),
+])
+def test_profile_errors_exactly(tmp_path, text, error):
+    path = profile_file(tmp_path, text)
+    with pytest.raises(ProfileError) as raised:
+        read_profile(path)
+    assert str(raised.value) == error.format(path=path)
+
+
+def test_binary_profile_names_the_byte(tmp_path):
+    path = tmp_path / 'b.csv'
+    path.write_bytes(b'time,current\n0,-1\n\xff\n')
+    with pytest.raises(ProfileError) as raised:
+        read_profile(path)
+    assert str(raised.value) == '%s: not a UTF-8 text CSV file (byte 18)' % path
+
+
+def test_blank_rows_are_skipped_anywhere(tmp_path):
+    path = profile_file(tmp_path, 'Time , Current\n0,-1\n\n,,\n 10 ,-2\n\n20,0\n')
+    assert read_profile(path) == [(0.0, 'current', -1.0), (10.0, 'current', -2.0), (20.0, 'current', 0.0)]
