@@ -271,30 +271,33 @@ def test_a_closed_pipe_sends_the_rest_to_devnull(tmp_path, monkeypatch):
         os.close(write_end)
 
 
-def stepped_by_hand(params, segments, step_s, state_of_charge=1.0):
-    """The rows replay() should give: each (duration, kind, value) held in steps of at most step_s."""
+def stepped_by_hand(params, segments, step_s, state_of_charge=1.0, whole=()):
+    """The voltages replay() should give: each (duration, kind, value) held in steps of at most step_s
+    (the segments numbered in ``whole`` in one step)."""
     model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
-    time_s, rows = 0.0, []
-    for duration, kind, value in segments:
-        steps = max(1, int(math.ceil(duration / step_s)))
+    rows = []
+    for number, (duration, kind, value) in enumerate(segments):
+        steps = 1 if number in whole else max(1, int(math.ceil(duration / step_s)))
         for _ in range(steps):
             model.step(duration / steps, **{kind + ('_a' if kind == 'current' else '_w'): value})
-        time_s += duration
         rows.append('%.4f' % model.voltage_v)
     return rows
 
 
 def test_segments_are_cut_into_max_step_pieces():
     params = preset('lg_hg2_3s1p')
-    profile = [(0.0, 'power', -60.0), (1800.0, 'current', 1.0), (9000.0, 'power', -30.0), (9600.0, 'current', 0.0)]
-    segments = [(1800.0, 'power', -60.0), (7200.0, 'current', 1.0), (600.0, 'power', -30.0)]
+    # the 1 A charge reaches the CV phase, where the step size shows
+    profile = [(0.0, 'power', -20.0), (1800.0, 'current', 1.0), (12600.0, 'power', -30.0), (13200.0, 'current', 0.0)]
+    segments = [(1800.0, 'power', -20.0), (10800.0, 'current', 1.0), (600.0, 'power', -30.0)]
     for max_step in (1.0, 600.0):
         rows = list(replay(params, profile, state_of_charge=0.5, max_step_s=max_step))
         assert [row[1] for row in rows[1:]] == stepped_by_hand(params, segments, max_step, 0.5), max_step
     default_rows = list(replay(params, profile, state_of_charge=0.5))
     assert [row[1] for row in default_rows[1:]] == stepped_by_hand(params, segments, 1.0, 0.5)
-    coarse = stepped_by_hand(params, segments, 1800.0, 0.5)
-    assert coarse != stepped_by_hand(params, segments, 1.0, 0.5), 'the step size must matter for this profile'
+    fine = stepped_by_hand(params, segments, 1.0, 0.5)
+    assert stepped_by_hand(params, segments, 600.0, 0.5) != fine, 'the step size must matter for this profile'
+    charge_in_one_step = stepped_by_hand(params, segments, 1.0, 0.5, whole=(1,))
+    assert charge_in_one_step[1] != fine[1], 'the charge segment must be cut into steps too'
 
 
 def test_the_cli_passes_max_step_on(tmp_path):
@@ -313,7 +316,7 @@ def test_the_cli_passes_max_step_on(tmp_path):
                          'column, got time,amps'),
     ('time,current\n0,-1\n10,abc\n', '{path} line 3: expected numbers in "time" and "current", got 10,abc'),
     ('time,power\n0,-1\n10\n', '{path} line 3: expected numbers in "time" and "power", got 10'),
-    ('time,current\n0,-1\n5,-2\n4,-1\n', '{path} line 4: time 4 s is before the previous row\'s 5 s'),
+    ('time,current\n0,-1\n5,-2\n7,-2\n6,-1\n', '{path} line 5: time 6 s is before the previous row\'s 7 s'),
     ('time,current\n0,-1\n5,nan\n', '{path} line 3: values must be finite, got 5,nan'),
     ('time,current\n', '{path}: no data rows after the header'),
     ('time,current\n0,"' + 'x' * 200000 + '"\n', '{path}: not a CSV file: field larger than field limit (131072)'),
