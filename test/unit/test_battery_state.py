@@ -87,3 +87,10 @@ def test_stamps_and_counts_pass_through():
     assert state.battery.header.stamp == stamp
     assert state.battery.voltage == pytest.approx(snapshot.voltage_v)
     assert state.cycle_count == pytest.approx(0.5 * PACK.load_current_a / PACK.cell_capacity_ah, rel=1e-6)  # 0.5 h at 1.5 A
+
+
+def test_defaults_are_no_frame_and_no_extra_load():
+    snapshot = BatteryModel(PACK, state_of_charge=0.5).snapshot()
+    assert battery_state.to_battery_state(snapshot, PACK).header.frame_id == ''
+    state = battery_state.to_sim_state(snapshot, PACK)
+    assert state.battery.header.frame_id == '' and state.load_power_w == 0.0
