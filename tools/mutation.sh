@@ -3,7 +3,7 @@
 # message mapping, with mutmut (a developer tool from PyPI, in a venv of its
 # own made with --system-site-packages; never a runtime dependency).
 #
-#   tools/mutation.sh                    # all four modules (about 20 minutes on 2 cores)
+#   tools/mutation.sh                    # all four modules (about 6 minutes on 2 cores)
 #   tools/mutation.sh replay parameters  # only these
 #
 # It works in a copy (build/mutation/) with the generated message modules
