@@ -78,6 +78,11 @@ def message(name, value, allowed):
     return 'parameter %s = %r is invalid: must be %s' % (name, value, allowed)
 
 
+def value_after(changes, name):
+    """What parameter ``name`` is once ``changes`` are applied to the defaults."""
+    return changes.get(name, getattr(BatteryParameters(), name))
+
+
 def rejection(**changes):
     with pytest.raises(ParameterError) as error:
         replace(BatteryParameters(), **changes)
@@ -107,8 +112,7 @@ def test_values_on_a_boundary_are_allowed(name, value):
      'at most 40 A (cell_max_discharge_current_a x cells_parallel)'),
 ])
 def test_cross_checks_name_the_limit_and_its_figure(changes, name, allowed):
-    params_value = {**BatteryParameters().__dict__, **changes}[name]
-    assert rejection(**changes) == message(name, params_value, allowed)
+    assert rejection(**changes) == message(name, value_after(changes, name), allowed)
 
 
 def test_limits_scale_with_the_cells_in_parallel():
@@ -147,7 +151,7 @@ OCV = {'ocv_soc': (0.0, 0.5, 1.0), 'ocv_voltage_v': (2.8, 3.6, 4.2)}
 ])
 def test_ocv_table_rules(changes, name, allowed):
     changes = {**OCV, **changes}
-    assert rejection(**changes) == message(name, changes.get(name, getattr(BatteryParameters(), name)), allowed)
+    assert rejection(**changes) == message(name, value_after(changes, name), allowed)
 
 
 def test_an_ocv_table_may_start_below_one_volt():
