@@ -148,6 +148,23 @@ class TestClient(unittest.TestCase):
         self.assertEqual(client.returncode, 130, out + err)
         self.assertNotIn('Traceback', err)
 
+    def test_ctrl_c_while_starting_up_prints_no_traceback(self):
+        # -X importtime reports each finished import on stderr: interrupt while the ROS imports still run
+        client = subprocess.Popen(['/usr/bin/python3', '-X', 'importtime'] + CLIENT + ['1'], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, start_new_session=True)
+        self.addCleanup(stop_process, client, signal.SIGKILL)
+        imported = []
+        while 'numpy' not in imported:   # numpy comes with genpy, before actionlib and the messages
+            ready, _, _ = select.select([client.stderr], [], [], 30.0)
+            self.assertTrue(ready, 'no import report within 30 s')
+            line = client.stderr.readline()
+            self.assertTrue(line, 'the client ended before importing numpy')
+            imported.append(line.rsplit('|', 1)[-1].strip())
+        client.send_signal(signal.SIGINT)
+        out, err = client.communicate(timeout=30.0)
+        self.assertEqual(client.returncode, 130, out + err)
+        self.assertNotIn('Traceback', err)
+
     def test_no_master_exits_3_within_the_server_timeout(self):
         env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')   # nothing listens on the discard port
         started = time.monotonic()

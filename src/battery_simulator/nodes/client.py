@@ -21,6 +21,7 @@ from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
+from battery_simulator.nodes.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
 
 CHOICES = {'1': True, 'charge': True, '0': False, 'discharge': False}
 SUPPLY_STATUS = {BatteryState.POWER_SUPPLY_STATUS_CHARGING: 'charging',
@@ -31,7 +32,6 @@ GOAL_STATES = {GoalStatus.SUCCEEDED: 'succeeded', GoalStatus.ABORTED: 'aborted',
                GoalStatus.PREEMPTED: 'preempted', GoalStatus.REJECTED: 'rejected',
                GoalStatus.RECALLED: 'recalled', GoalStatus.LOST: 'lost'}
 BAR_WIDTH = 30
-WAIT_STEP_S = 0.1
 LOST_SERVER_S = 3.0   # the server's connection gone this long (wall): the goal is lost
 
 
@@ -107,11 +107,12 @@ class GoalWatch:
     def on_done(self, state, result):
         self._done.set()
 
-    def wait(self, timeout_s):
+    def wait(self, timeout_s, stop):
         """'done', 'timeout' or 'lost' (the server's connection has been gone for LOST_SERVER_S)."""
         deadline = time.monotonic() + timeout_s if timeout_s else math.inf
         gone_since = None
         while not self._done.wait(WAIT_STEP_S):
+            stop.check()
             now = time.monotonic()
             if now >= deadline:
                 return 'timeout'
@@ -134,22 +135,14 @@ def server_connected(client):
     return client.action_client.pub_goal.impl.has_connection(status._connection_header['callerid'])
 
 
-def wait_in_wall_time(wait, timeout_s):
-    """Run a blocking ``wait()`` (one that measures ROS time) in a thread; its result, or False after timeout_s."""
-    outcome = []
-    thread = threading.Thread(target=lambda: outcome.append(wait()), daemon=True)
-    thread.start()
-    thread.join(timeout_s)
-    return bool(outcome and outcome[0])
-
-
-def wait_for_master(timeout_s):
+def wait_for_master(timeout_s, stop):
     master = rosgraph.Master('/battery_sim_client')
     deadline = time.monotonic() + timeout_s
     while not master.is_online():
+        stop.check()
         if time.monotonic() >= deadline:
             return False
-        time.sleep(0.1)
+        time.sleep(WAIT_STEP_S)
     return True
 
 
@@ -158,26 +151,24 @@ def _exit(code, text, stream=sys.stderr):
     sys.exit(code)
 
 
-def _terminate(signum, frame):
-    raise KeyboardInterrupt   # SIGTERM: cancel the goal, as Ctrl-C does
-
-
 def main(argv=None):
     argv = rospy.myargv(sys.argv)[1:] if argv is None else argv
     args = parse_arguments(argv)
     charge = CHOICES[args.goal]
-    signal.signal(signal.SIGTERM, _terminate)
+    stop = StopRequest()
+    signal.signal(signal.SIGINT, stop.handle)
+    signal.signal(signal.SIGTERM, stop.handle)   # SIGTERM cancels the goal, as Ctrl-C does
     client = None
     try:
-        if not wait_for_master(args.server_timeout):
+        if not wait_for_master(args.server_timeout, stop):
             _exit(3, 'battery_sim_client: no ROS master at %s after %g s'
                   % (rosgraph.get_master_uri(), args.server_timeout))
         rospy.init_node('battery_sim_client', anonymous=True, disable_signals=True)
         action_client = actionlib.SimpleActionClient('battery_simulator', battery_simAction)
-        if not wait_in_wall_time(lambda: action_client.wait_for_server(rospy.Duration(0.5)), 1.0):
+        if not wait_in_wall_time(lambda: action_client.wait_for_server(rospy.Duration(0.5)), 1.0, stop):
             print('battery_sim_client: waiting for the action server %s (up to %g s)...'
                   % (rospy.resolve_name('battery_simulator'), args.server_timeout), file=sys.stderr, flush=True)
-        if not wait_in_wall_time(action_client.wait_for_server, args.server_timeout):
+        if not wait_in_wall_time(action_client.wait_for_server, args.server_timeout, stop):
             _exit(3, 'battery_sim_client: no action server %s after %g s'
                   % (rospy.resolve_name('battery_simulator'), args.server_timeout))
         view = ProgressView(sys.stdout)
@@ -185,8 +176,8 @@ def main(argv=None):
         print('%s the battery...' % ('Charging' if charge else 'Discharging'))
         client = action_client
         client.send_goal(battery_simGoal(charge_state=charge), done_cb=watch.on_done, feedback_cb=view.on_feedback)
-        outcome = watch.wait(args.timeout)
-    except KeyboardInterrupt:
+        outcome = watch.wait(args.timeout, stop)
+    except Cancelled:
         if client is not None:
             client.cancel_goal()
             wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(5.0)), 5.0)
