@@ -198,7 +198,9 @@ class TestOperations(unittest.TestCase):
         self.reconfigure.update_configuration(DEFAULTS)   # whatever a failed test left
 
     def test_live_tuning_changes_the_model_and_refuses_bad_values(self):
+        seen = self.state.count()
         self.set_state(90.0, NAN, NAN)
+        self.state.wait_new(seen, lambda m: m.publish_now, 5.0, 'the state set')   # older ones may come late
         before = self.drain_rate(1.5)
         config = self.reconfigure.update_configuration({'load_current_a': 3.0})
         self.assertEqual(config['load_current_a'], 3.0)

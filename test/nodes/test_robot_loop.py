@@ -129,6 +129,22 @@ class TestRobotLoop(unittest.TestCase):
         self.state.next_after(seen + 3)
         self.assertEqual(self.state.latest().charging_state, 'Charging', 'a repeated false changed the mode')
 
+    def test_a_service_change_shows_on_the_next_battery_status_at_once(self):
+        # rate 0.2: the next tick is up to 5 s away; what a service changed must not wait for it
+        self.addCleanup(self.set_load, 'heater', 0.0)
+        self.status.wait_until(lambda m: abs(m.percentage - 0.70) < 0.001, 2.0, "setUp's 70 % (one hop behind)")
+        seen = self.status.count()
+        self.assertTrue(self.set_load('heater', 30.0).success)
+        loaded = self.status.next_after(seen, 2.0)
+        self.assertAlmostEqual(loaded.current, -(1.5 + 30.0 / loaded.voltage), delta=0.01)
+        self.set_load('heater', 0.0)
+        rospy.delete_param(MODE_PARAM)   # hold: only set_state moves the level
+        for percentage in (40.0, 55.0, 30.0):
+            seen = self.status.count()
+            self.assertTrue(self.set_state(percentage, NAN, NAN).success)
+            shown = self.status.next_after(seen, 2.0)
+            self.assertAlmostEqual(shown.percentage, percentage / 100.0, delta=0.001)
+
     def test_set_charging_service_acts_like_the_contact(self):
         self.check_status_within_a_second(lambda: self.set_charging(True), CHARGING, 'CHARGING')
         self.check_status_within_a_second(lambda: self.set_charging(False), DISCHARGING, 'DISCHARGING')

@@ -36,6 +36,8 @@ act on the model through the same lock.
   - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
   - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
+  Each service replies once the state it changed is published (marked publish_now),
+  so the next battery_status shows the change.
 """
 import math
 import random
@@ -67,6 +69,7 @@ from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, Se
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 INVALID_LOG_PERIOD_S = 10.0
 OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
+SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
 FAULTS = {
     'charger_fault': 'charger connected but no current flows',
     'overheat': 'the pack heats past its overheat limit',
@@ -141,6 +144,9 @@ class BatterySimServer:
             self._clock, self._time_base = time.monotonic, TimeBase(time_scale)
         self._lock = threading.Condition()
         self._wake = False                 # something changed: update and publish now
+        self._updates = 0                  # model updates taken for publishing (worker)
+        self._urgent_update = 0            # the update a service asked for: battery_status shows it at once
+        self._published_update = 0         # the last update published on battery_simulator/state
         self._stopping = threading.Event()
         self._mode_generation = 0          # bumped whenever the mode is set other than by the parameter
         self._mode_source = 'parameter'    # who set the mode last (for abort texts)
@@ -227,6 +233,16 @@ class BatterySimServer:
             self._wake = True
             self._lock.notify_all()
 
+    def _publish_change_now(self):
+        """A service changed the model (self._lock held): the next update carries the change and
+        battery_state_pub sends it at once. Waits (bounded) until it is published, so the caller's
+        reply comes after the state it asked for, and the next battery_status shows it."""
+        wanted = self._updates + 1
+        self._urgent_update = wanted
+        self._wake_up()
+        self._lock.wait_for(lambda: self._published_update >= wanted or self._stopping.is_set(),
+                            SERVICE_PUBLISH_WAIT_S)
+
     # -- the worker thread ----------------------------------------------------
 
     def _run(self):
@@ -276,9 +292,14 @@ class BatterySimServer:
             snapshot = self.model.snapshot()
             state = self.model.export_state()
             load_w = motion_w + sum(self._payloads.values())
+            self._updates += 1
+            update = self._updates
         if self._time_base.restarts != restarts:
             rospy.logwarn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
-        self._publish_state(snapshot, load_w)
+        self._publish_state(snapshot, load_w, publish_now=update == self._urgent_update)
+        with self._lock:
+            self._published_update = update
+            self._lock.notify_all()
         self._store.maybe_save(state)
         self._log_progress(snapshot)
         self._check_goal(snapshot)
@@ -326,10 +347,11 @@ class BatterySimServer:
         rospy.logerr('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
                      '(hold); keeping %s', rospy.resolve_name(topics.MODE_PARAM), raw_mode, self.model.mode.value)
 
-    def _publish_state(self, snapshot, load_w=0.0):
+    def _publish_state(self, snapshot, load_w=0.0, publish_now=False):
         with self._lock:
             faults = set(self._faults)
         msg = to_sim_state(snapshot, self.params, stamp=rospy.Time.now(), load_power_w=load_w, faults=faults)
+        msg.publish_now = publish_now
         if 'measurement_noise' in faults:
             battery = msg.battery
             battery.voltage += self._noise.gauss(0.0, self.params.voltage_noise_v)
@@ -413,7 +435,9 @@ class BatterySimServer:
         self._change_contact(bool(msg.data), 'charger contact')
 
     def _set_charging(self, request):
-        self._change_contact(bool(request.data), 'set_charging')
+        with self._lock:
+            self._change_contact(bool(request.data), 'set_charging')
+            self._publish_change_now()
         return SetBoolResponse(success=True, message='charger %s' % ('connected' if request.data else 'disconnected'))
 
     def _change_contact(self, connected, source):
@@ -438,7 +462,7 @@ class BatterySimServer:
                 self._payloads.pop(name, None)
             self.model.set_extra_load('payload', power_w=sum(self._payloads.values()))
             total = sum(self._payloads.values())
-            self._wake_up()
+            self._publish_change_now()
         return SetLoadResponse(success=True, message='%s: %g W; payload loads now %g W' % (name, power_w, total))
 
     def _set_state(self, request):
@@ -449,7 +473,7 @@ class BatterySimServer:
             with self._lock:
                 self.model.set_state(None if percentage is None else percentage / 100.0,
                                      given(request.temperature_c), given(request.state_of_health))
-                self._wake_up()
+                self._publish_change_now()
         except ValueError as error:
             return SetStateResponse(success=False, message=str(error).replace('state_of_charge', 'percentage/100'))
         return SetStateResponse(success=True, message='state set')
@@ -459,7 +483,7 @@ class BatterySimServer:
             self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
                                  max(1e-9, 1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
             self.model.discharged_ah = 0.0
-            self._wake_up()
+            self._publish_change_now()
         return TriggerResponse(success=True, message='reset to %.1f %%, mode kept' % (100.0 * self._initial_soc))
 
     def _inject_fault(self, request):
@@ -473,7 +497,7 @@ class BatterySimServer:
                 self._faults.discard(request.fault)
             if request.fault == 'charger_fault':
                 self.model.set_charger_fault(request.active)
-            self._wake_up()
+            self._publish_change_now()
         rospy.logwarn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
         return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
                                                                       else 'cleared'))

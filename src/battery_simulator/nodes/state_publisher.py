@@ -3,7 +3,8 @@
 It runs no model: it republishes the server's latest state on
 ``battery_status`` at ``~rate`` Hz, stamped with the current ROS time, so the
 topic and the action feedback always describe the same battery. A change of
-power_supply_status is published at once, whatever the rate. It also turns
+power_supply_status, or one a server service made (set_state, reset, a fault,
+a load), is published at once, whatever the rate. It also turns
 the level into ``battery_low`` / ``battery_critical`` events (with hysteresis)
 and publishes REP-107 diagnostics. When the server goes quiet it keeps
 publishing the last state with a stale-data warning, and resumes when the
@@ -100,8 +101,8 @@ class BatteryStatePublisher:
             if alarm.update(msg.battery.percentage):
                 rospy.loginfo('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * msg.battery.percentage)
                 self._alarm_pubs[name].publish(Bool(data=alarm.active))
-        if changed and self._published_status is not None:
-            self.publish_once()   # a status change goes out at once, not at the next tick
+        if msg.publish_now or (changed and self._published_status is not None):
+            self.publish_once()   # a service's change or a status change goes out at once, not at the next tick
         if msg.battery.serial_number:
             self._updater.setHardwareID(msg.battery.serial_number)
 
