@@ -130,19 +130,21 @@ class TestRobotLoop(unittest.TestCase):
         self.assertEqual(self.state.latest().charging_state, 'Charging', 'a repeated false changed the mode')
 
     def test_a_service_change_shows_on_the_next_battery_status_at_once(self):
-        # rate 0.2: the next tick is up to 5 s away; what a service changed must not wait for it
+        # rate 0.2: the next tick is up to 5 s away; what a service changed must not wait for it.
+        # Each step reads its own message before the next, so none is still on its way.
+        def next_status_after(call):
+            seen = self.status.count()
+            self.assertTrue(call().success)
+            return self.status.next_after(seen, 2.0)
+
         self.addCleanup(self.set_load, 'heater', 0.0)
         self.status.wait_until(lambda m: abs(m.percentage - 0.70) < 0.001, 2.0, "setUp's 70 % (one hop behind)")
-        seen = self.status.count()
-        self.assertTrue(self.set_load('heater', 30.0).success)
-        loaded = self.status.next_after(seen, 2.0)
+        loaded = next_status_after(lambda: self.set_load('heater', 30.0))
         self.assertAlmostEqual(loaded.current, -(1.5 + 30.0 / loaded.voltage), delta=0.01)
-        self.set_load('heater', 0.0)
-        rospy.delete_param(MODE_PARAM)   # hold: only set_state moves the level
+        unloaded = next_status_after(lambda: self.set_load('heater', 0.0))
+        self.assertAlmostEqual(unloaded.current, -1.5, places=3)
         for percentage in (40.0, 55.0, 30.0):
-            seen = self.status.count()
-            self.assertTrue(self.set_state(percentage, NAN, NAN).success)
-            shown = self.status.next_after(seen, 2.0)
+            shown = next_status_after(lambda: self.set_state(percentage, NAN, NAN))
             self.assertAlmostEqual(shown.percentage, percentage / 100.0, delta=0.001)
 
     def test_set_charging_service_acts_like_the_contact(self):
