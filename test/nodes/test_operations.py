@@ -100,9 +100,8 @@ class TestOperations(unittest.TestCase):
 
     def test_set_state_shows_on_the_next_battery_status_and_refuses_bad_values(self):
         self.status.wait_until(lambda m: abs(m.percentage - 0.80) < 0.002, 5.0, "setUp's 80 % (one hop behind)")
-        seen = self.status.count()
         self.assertTrue(self.set_state(18.0, 35.0, 0.9).success)
-        msg = self.status.next_after(seen)
+        msg = self.status.next_after(self.status.count())   # the reply came after the change was published
         self.assertAlmostEqual(msg.percentage, 0.18, delta=0.002)
         self.assertAlmostEqual(msg.temperature, 35.0, delta=0.5)
         self.assertAlmostEqual(msg.capacity, 0.9 * msg.design_capacity, places=3)
