@@ -2,12 +2,11 @@
 
     rosrun battery_simulator battery_sim_client.py 1|0|charge|discharge [--timeout S]
 
-Exits 0 when the goal succeeds; 1 when it is aborted or preempted, or the
+client_cli reads the arguments (before the ROS imports); run() sends the goal. Exits 0 when the goal succeeds; 1 when it is aborted or preempted, or the
 server goes away mid-goal; 2 for bad arguments (no goal is sent); 3 when the
 master or the server cannot be reached; 4 on timeout; 130 on Ctrl-C or
 SIGTERM (the goal is cancelled first). Timeouts are wall-clock seconds.
 """
-import argparse
 import math
 import signal
 import sys
@@ -21,9 +20,9 @@ from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
+from battery_simulator.nodes.client_cli import CHOICES
 from battery_simulator.nodes.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
 
-CHOICES = {'1': True, 'charge': True, '0': False, 'discharge': False}
 SUPPLY_STATUS = {BatteryState.POWER_SUPPLY_STATUS_CHARGING: 'charging',
                  BatteryState.POWER_SUPPLY_STATUS_DISCHARGING: 'discharging',
                  BatteryState.POWER_SUPPLY_STATUS_FULL: 'full',
@@ -33,32 +32,6 @@ GOAL_STATES = {GoalStatus.SUCCEEDED: 'succeeded', GoalStatus.ABORTED: 'aborted',
                GoalStatus.RECALLED: 'recalled', GoalStatus.LOST: 'lost'}
 BAR_WIDTH = 30
 LOST_SERVER_S = 3.0   # the server's connection gone this long (wall): the goal is lost
-
-
-def _seconds(minimum_exclusive):
-    def parse(text):
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and (value > 0 if minimum_exclusive else value >= 0)):
-            raise argparse.ArgumentTypeError('%s is not a number of seconds %s 0' % (
-                text, '>' if minimum_exclusive else '>='))
-        return value
-    return parse
-
-
-def parse_arguments(argv):
-    parser = argparse.ArgumentParser(
-        prog='battery_sim_client.py', description='Charge or discharge the simulated battery. '
-        'Timeouts are wall-clock seconds, also under /use_sim_time.')
-    parser.add_argument('goal', choices=sorted(CHOICES), metavar='{1,0,charge,discharge}',
-                        help='1 or charge: charge to full; 0 or discharge: discharge to empty')
-    parser.add_argument('--timeout', type=_seconds(False), default=0.0,
-                        help='give up (and cancel) after this many seconds; 0 waits for ever')
-    parser.add_argument('--server-timeout', type=_seconds(True), default=10.0,
-                        help='seconds to wait for the ROS master and the action server (default 10)')
-    return parser.parse_args(argv)
 
 
 def progress_line(percentage, state):
@@ -151,9 +124,8 @@ def _exit(code, text, stream=sys.stderr):
     sys.exit(code)
 
 
-def main(argv=None):
-    argv = rospy.myargv(sys.argv)[1:] if argv is None else argv
-    args = parse_arguments(argv)
+def run(args):
+    """Send the goal that client_cli.parse_arguments read, and wait for its end."""
     charge = CHOICES[args.goal]
     stop = StopRequest()
     signal.signal(signal.SIGINT, stop.handle)

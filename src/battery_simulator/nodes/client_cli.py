@@ -1,0 +1,49 @@
+"""battery_sim_client.py's command line. The arguments are read and the signal handlers set
+before the client's imports (rospy, actionlib, numpy: about a second), so a usage error or
+--help answers at once, and Ctrl-C while starting exits 130 without an import traceback."""
+import argparse
+import math
+import signal
+import sys
+
+CHOICES = {'1': True, 'charge': True, '0': False, 'discharge': False}
+ROS_REMAP = ':='   # name:=value arguments are roslaunch's, not ours (as rospy.myargv drops them)
+
+
+def _seconds(minimum_exclusive):
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and (value > 0 if minimum_exclusive else value >= 0)):
+            raise argparse.ArgumentTypeError('%s is not a number of seconds %s 0' % (
+                text, '>' if minimum_exclusive else '>='))
+        return value
+    return parse
+
+
+def parse_arguments(argv):
+    parser = argparse.ArgumentParser(
+        prog='battery_sim_client.py', description='Charge or discharge the simulated battery. '
+        'Timeouts are wall-clock seconds, also under /use_sim_time.')
+    parser.add_argument('goal', choices=sorted(CHOICES), metavar='{1,0,charge,discharge}',
+                        help='1 or charge: charge to full; 0 or discharge: discharge to empty')
+    parser.add_argument('--timeout', type=_seconds(False), default=0.0,
+                        help='give up (and cancel) after this many seconds; 0 waits for ever')
+    parser.add_argument('--server-timeout', type=_seconds(True), default=10.0,
+                        help='seconds to wait for the ROS master and the action server (default 10)')
+    return parser.parse_args(argv)
+
+
+def _quit_while_starting(signum, frame):
+    sys.exit(130)   # no goal sent yet: nothing to cancel
+
+
+def main(argv=None):
+    signal.signal(signal.SIGINT, _quit_while_starting)
+    signal.signal(signal.SIGTERM, _quit_while_starting)
+    argv = sys.argv[1:] if argv is None else argv
+    args = parse_arguments([arg for arg in argv if ROS_REMAP not in arg])
+    from battery_simulator.nodes import client   # replaces the handlers once it can cancel a goal
+    client.run(args)

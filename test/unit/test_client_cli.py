@@ -1,0 +1,61 @@
+"""battery_sim_client.py's command line, read before any ROS import."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from battery_simulator.nodes.client_cli import CHOICES, parse_arguments
+
+SRC = Path(__file__).resolve().parents[2] / 'src'
+
+
+@pytest.mark.parametrize('goal, charge', [('1', True), ('charge', True), ('0', False), ('discharge', False)])
+def test_each_goal_spelling(goal, charge):
+    args = parse_arguments([goal])
+    assert CHOICES[args.goal] is charge
+    assert (args.timeout, args.server_timeout) == (0.0, 10.0)
+
+
+def test_timeouts_are_seconds():
+    args = parse_arguments(['1', '--timeout', '2.5', '--server-timeout', '0.5'])
+    assert (args.timeout, args.server_timeout) == (2.5, 0.5)
+    assert parse_arguments(['1', '--timeout', '0']).timeout == 0.0   # 0 waits for ever
+
+
+@pytest.mark.parametrize('option, text, message', [
+    ('--timeout', '-1', '-1 is not a number of seconds >= 0'),
+    ('--timeout', 'nan', 'nan is not a number of seconds >= 0'),
+    ('--timeout', 'soon', 'soon is not a number of seconds >= 0'),
+    ('--server-timeout', '0', '0 is not a number of seconds > 0'),
+    ('--server-timeout', 'inf', 'inf is not a number of seconds > 0'),
+])
+def test_bad_seconds_name_the_value(option, text, message, capsys):
+    with pytest.raises(SystemExit) as exited:
+        parse_arguments(['1', option, text])
+    assert exited.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+def run_cli(*argv):
+    """main(argv) in a fresh interpreter: the exit code, stderr, and whether rospy got imported."""
+    code = ('import sys\nfrom battery_simulator.nodes.client_cli import main\n'
+            'try:\n    main(%r)\nexcept SystemExit as exit:\n'
+            '    print(exit.code, "rospy" in sys.modules)\n' % (list(argv),))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(SRC), os.environ.get('PYTHONPATH', '')]))
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, env=env, timeout=60)
+    exit_code, rospy_imported = result.stdout.split()[-2:]
+    return exit_code, result.stderr, rospy_imported == 'True'
+
+
+@pytest.mark.parametrize('argv', [['2'], [], ['1', '--timeout', 'x']])
+def test_a_usage_error_exits_2_before_any_ros_import(argv):
+    exit_code, err, rospy_imported = run_cli(*argv)
+    assert exit_code == '2' and 'usage: battery_sim_client.py' in err
+    assert not rospy_imported
+
+
+def test_remap_arguments_are_not_goals():
+    exit_code, err, _ = run_cli('__name:=client', '2')
+    assert exit_code == '2' and "invalid choice: '2'" in err and '__name' not in err
