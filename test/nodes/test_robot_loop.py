@@ -10,6 +10,7 @@ import actionlib
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
+from dynamic_reconfigure.client import Client as ReconfigureClient
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
@@ -145,6 +146,11 @@ class TestRobotLoop(unittest.TestCase):
         for percentage in (40.0, 55.0, 30.0):
             shown_within_2_s(lambda: self.set_state(percentage, NAN, NAN),
                              lambda m: abs(m.percentage - percentage / 100.0) < 0.001, '%g %%' % percentage)
+        reconfigure = ReconfigureClient('BatterySimServer', timeout=30.0)
+        self.addCleanup(reconfigure.update_configuration, {'load_current_a': 1.5})
+        seen = self.status.count()
+        reconfigure.update_configuration({'load_current_a': 2.5})
+        self.status.wait_new(seen, lambda m: abs(m.current + 2.5) < 1e-3, 2.0, 'the live-tuned load')
 
     def test_set_charging_service_acts_like_the_contact(self):
         self.check_status_within_a_second(lambda: self.set_charging(True), CHARGING, 'CHARGING')

@@ -36,8 +36,8 @@ act on the model through the same lock.
   - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
   - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
-  Each service replies once the state it changed is published (marked publish_now),
-  so the next battery_status shows the change.
+  Each service (and dynamic_reconfigure) replies once the state it changed is
+  published (marked publish_now), so the next battery_status shows the change.
 """
 import math
 import random
@@ -518,7 +518,7 @@ class BatterySimServer:
                 rospy.logerr('dynamic_reconfigure: %s; keeping the previous values', error)
                 params = self.params
             self.params = self.model.params = params
-            self._wake_up()
+            self._publish_change_now()
         for name in LIVE_PARAMETERS:
             config[name] = getattr(params, name)
         return config
