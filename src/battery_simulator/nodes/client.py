@@ -2,7 +2,8 @@
 
     rosrun battery_simulator battery_sim_client.py 1|0|charge|discharge [--timeout S]
 
-client_cli reads the arguments (before the ROS imports); run() sends the goal. Exits 0 when the goal succeeds; 1 when it is aborted or preempted, or the
+client_cli reads the arguments (before the ROS imports); run() sends the goal.
+Exits 0 when the goal succeeds; 1 when it is aborted or preempted, or the
 server goes away mid-goal; 2 for bad arguments (no goal is sent); 3 when the
 master or the server cannot be reached; 4 on timeout; 130 on Ctrl-C or
 SIGTERM (the goal is cancelled first). Timeouts are wall-clock seconds.
