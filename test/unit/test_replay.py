@@ -328,3 +328,47 @@ def test_binary_profile_names_the_byte(tmp_path):
 def test_blank_rows_are_skipped_anywhere(tmp_path):
     path = profile_file(tmp_path, 'Time , Current\n0,-1\n\n,,\n 10 ,-2\n\n20,0\n')
     assert read_profile(path) == [(0.0, 'current', -1.0), (10.0, 'current', -2.0), (20.0, 'current', 0.0)]
+
+
+def rows_then(error):
+    """A stand-in for replay(): one row, then ``error`` (as Ctrl-C or a full disk would strike)."""
+    def broken_replay(*args, **kwargs):
+        yield (0.0, 4.2, 0.0, 1.0, 25.0, 'NOT_CHARGING')
+        raise error
+    return broken_replay
+
+
+@pytest.mark.parametrize('error, code, message', [
+    (KeyboardInterrupt(), 130, 'battery_replay: interrupted\n'),
+    (OSError(28, 'No space left on device'), 1, 'battery_replay: cannot write {out}: No space left on device\n'),
+])
+def test_a_broken_replay_leaves_the_older_output_as_it_was(tmp_path, monkeypatch, error, code, message):
+    out = tmp_path / 'out.csv'
+    out.write_text('older results\n')
+    monkeypatch.setattr('battery_simulator.core.replay.replay', rows_then(error))
+    result = run_cli(profile_file(tmp_path), '-o', out)
+    assert (result.returncode, result.stderr) == (code, message.format(out=out))
+    assert out.read_text() == 'older results\n'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['out.csv', 'p.csv'], 'no partial file left'
+
+
+def test_ctrl_c_while_writing_to_stdout_exits_130_without_a_traceback(tmp_path, monkeypatch):
+    monkeypatch.setattr('battery_simulator.core.replay.replay', rows_then(KeyboardInterrupt()))
+    result = run_cli(profile_file(tmp_path))
+    assert (result.returncode, result.stderr) == (130, 'battery_replay: interrupted\n')
+
+
+def test_a_finished_replay_replaces_the_older_output(tmp_path):
+    out = tmp_path / 'out.csv'
+    out.write_text('older results\n')
+    assert run_cli(profile_file(tmp_path), '-o', out).returncode == 0
+    assert out.read_text().startswith('time,voltage,current,soc,temperature,status\n0,')
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['out.csv', 'p.csv']
+
+
+def test_an_output_that_is_a_folder_is_refused_and_nothing_is_left(tmp_path):
+    folder = tmp_path / 'results'
+    folder.mkdir()
+    result = run_cli(profile_file(tmp_path), '-o', folder)
+    assert (result.returncode, result.stderr) == (1, 'battery_replay: cannot write %s: Is a directory\n' % folder)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['p.csv', 'results']

@@ -11,6 +11,7 @@ row per profile row: the state at that time (time, voltage, current, soc 0..1,
 temperature, status).
 """
 import argparse
+import contextlib
 import csv
 import math
 import os
@@ -140,18 +141,39 @@ def main(argv=None):
     except (ParameterError, ProfileError) as error:
         sys.exit('battery_replay: %s' % error)
     rows = replay(params, profile, state_of_charge=args.soc, max_step_s=args.max_step)
-    if args.output:
-        try:
-            with open(args.output, 'w', newline='', encoding='utf-8') as stream:
-                _write(stream, rows)
-        except OSError as error:
-            sys.exit('battery_replay: cannot write %s: %s' % (args.output, error.strerror))
-        return
     try:
-        _write(sys.stdout, rows)
-        sys.stdout.flush()
-    except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        if args.output:
+            _write_file(args.output, rows)
+            return
+        try:
+            _write(sys.stdout, rows)
+            sys.stdout.flush()
+        except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except KeyboardInterrupt:
+        sys.stderr.write('battery_replay: interrupted\n')
+        sys.exit(130)
+
+
+def _write_file(path, rows):
+    """All rows or nothing: written beside ``path`` and renamed when complete, so an error or
+    Ctrl-C leaves no half-written file (and an older output as it was)."""
+    partial = path + '.part'
+    try:
+        with open(partial, 'w', newline='', encoding='utf-8') as stream:
+            _write(stream, rows)
+        os.replace(partial, path)
+    except OSError as error:
+        _remove(partial)
+        sys.exit('battery_replay: cannot write %s: %s' % (path, error.strerror))
+    except BaseException:
+        _remove(partial)
+        raise
+
+
+def _remove(path):
+    with contextlib.suppress(OSError):
+        os.remove(path)
 
 
 def _write(stream, rows):
