@@ -372,3 +372,11 @@ def test_an_output_that_is_a_folder_is_refused_and_nothing_is_left(tmp_path):
     result = run_cli(profile_file(tmp_path), '-o', folder)
     assert (result.returncode, result.stderr) == (1, 'battery_replay: cannot write %s: Is a directory\n' % folder)
     assert sorted(p.name for p in tmp_path.iterdir()) == ['p.csv', 'results']
+
+
+def test_ctrl_c_while_reading_the_profile_exits_130_without_a_traceback(tmp_path, monkeypatch):
+    def interrupted(path):
+        raise KeyboardInterrupt
+    monkeypatch.setattr('battery_simulator.core.replay.read_profile', interrupted)
+    result = run_cli(profile_file(tmp_path))
+    assert (result.returncode, result.stderr) == (130, 'battery_replay: interrupted\n')

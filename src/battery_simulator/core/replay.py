@@ -132,6 +132,14 @@ def parse_arguments(argv):
 
 def main(argv=None):
     args = parse_arguments(argv)
+    try:
+        _run(args)
+    except KeyboardInterrupt:
+        sys.stderr.write('battery_replay: interrupted\n')
+        sys.exit(130)
+
+
+def _run(args):
     if args.list_presets:
         print('\n'.join(preset_names()))
         return
@@ -141,18 +149,14 @@ def main(argv=None):
     except (ParameterError, ProfileError) as error:
         sys.exit('battery_replay: %s' % error)
     rows = replay(params, profile, state_of_charge=args.soc, max_step_s=args.max_step)
+    if args.output:
+        _write_file(args.output, rows)
+        return
     try:
-        if args.output:
-            _write_file(args.output, rows)
-            return
-        try:
-            _write(sys.stdout, rows)
-            sys.stdout.flush()
-        except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-    except KeyboardInterrupt:
-        sys.stderr.write('battery_replay: interrupted\n')
-        sys.exit(130)
+        _write(sys.stdout, rows)
+        sys.stdout.flush()
+    except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _write_file(path, rows):
