@@ -99,10 +99,11 @@ class TestOperations(unittest.TestCase):
     # -- test controls -----------------------------------------------------------
 
     def test_set_state_shows_on_the_next_battery_status_and_refuses_bad_values(self):
-        self.status.wait_until(lambda m: abs(m.percentage - 0.80) < 0.002, 5.0, "setUp's 80 % (one hop behind)")
+        seen = self.status.count()
         self.assertTrue(self.set_state(18.0, 35.0, 0.9).success)
-        msg = self.status.next_after(self.status.count())   # the reply came after the change was published
-        self.assertAlmostEqual(msg.percentage, 0.18, delta=0.002)
+        msg = self.status.wait_new(seen, lambda m: abs(m.percentage - 0.18) < 0.002, 1.0, '18 % at once')
+        self.assertAlmostEqual(self.status.next_after(self.status.count()).percentage, 0.18, delta=0.002,
+                               msg='no older state after it')
         self.assertAlmostEqual(msg.temperature, 35.0, delta=0.5)
         self.assertAlmostEqual(msg.capacity, 0.9 * msg.design_capacity, places=3)
         for bad in ((120.0, NAN, NAN), (-1.0, NAN, NAN), (NAN, 500.0, NAN), (NAN, NAN, 1.5), (50.0, NAN, 0.0)):

@@ -26,6 +26,7 @@ act on the model through the same lock.
 :Subscribes:
   - ``cmd_vel`` (geometry_msgs/Twist): motion load while discharging
   - ``charger_contact`` (std_msgs/Bool): a change connects (true) or disconnects the charger
+  - ``battery_simulator/status_sent`` (std_msgs/UInt64): battery_state_pub has sent a service's change
 
 :Publishes:
   - ``battery_simulator/state`` (battery_simulator/BatterySimState, latched): after every update
@@ -36,8 +37,9 @@ act on the model through the same lock.
   - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
   - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
-  Each service (and dynamic_reconfigure) replies once the state it changed is
-  published (marked publish_now), so the next battery_status shows the change.
+  Each service (and dynamic_reconfigure) replies once battery_state_pub has sent the
+  state it changed on battery_status (publish_now, acknowledged on status_sent; without
+  a battery_state_pub, once it is published), so the next battery_status shows the change.
 """
 import math
 import random
@@ -49,7 +51,7 @@ import actionlib
 import rospy
 from dynamic_reconfigure.server import Server as ReconfigureServer
 from geometry_msgs.msg import Twist
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
 from battery_simulator.cfg import BatterySimConfig
@@ -147,6 +149,7 @@ class BatterySimServer:
         self._updates = 0                  # model updates taken for publishing (worker)
         self._urgent_update = 0            # the update a service asked for: battery_status shows it at once
         self._published_update = 0         # the last update published on battery_simulator/state
+        self._sent_update = 0              # the last publish_now update battery_state_pub has sent on
         self._stopping = threading.Event()
         self._mode_generation = 0          # bumped whenever the mode is set other than by the parameter
         self._mode_source = 'parameter'    # who set the mode last (for abort texts)
@@ -192,6 +195,7 @@ class BatterySimServer:
         rospy.on_shutdown(self.stop)   # client hooks run before rospy closes the topics
         self._subscribers = [rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
                              rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
+        self._sent_sub = rospy.Subscriber(topics.STATUS_SENT, UInt64, self._on_status_sent, queue_size=10)
         self._services = [
             rospy.Service(topics.SET_LOAD, SetLoad, self._set_load),
             rospy.Service(topics.SET_CHARGING, SetBool, self._set_charging),
@@ -235,13 +239,22 @@ class BatterySimServer:
 
     def _publish_change_now(self):
         """A service changed the model (self._lock held): the next update carries the change and
-        battery_state_pub sends it at once. Waits (bounded) until it is published, so the caller's
-        reply comes after the state it asked for, and the next battery_status shows it."""
+        battery_state_pub sends it on battery_status at once. Waits (bounded) until it has, so the
+        caller's reply comes after that battery_status: the next one the caller sees shows the change."""
         wanted = self._updates + 1
         self._urgent_update = wanted
         self._wake_up()
+        deadline = time.monotonic() + SERVICE_PUBLISH_WAIT_S
         self._lock.wait_for(lambda: self._published_update >= wanted or self._stopping.is_set(),
                             SERVICE_PUBLISH_WAIT_S)
+        if self._sent_sub.get_num_connections() > 0:   # a battery_state_pub is there to say so
+            self._lock.wait_for(lambda: self._sent_update >= wanted or self._stopping.is_set(),
+                                max(0.0, deadline - time.monotonic()))
+
+    def _on_status_sent(self, msg):
+        with self._lock:
+            self._sent_update = max(self._sent_update, msg.data)
+            self._lock.notify_all()
 
     # -- the worker thread ----------------------------------------------------
 
@@ -296,7 +309,7 @@ class BatterySimServer:
             update = self._updates
         if self._time_base.restarts != restarts:
             rospy.logwarn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
-        self._publish_state(snapshot, load_w, publish_now=update == self._urgent_update)
+        self._publish_state(snapshot, load_w, publish_now=update == self._urgent_update, update=update)
         with self._lock:
             self._published_update = update
             self._lock.notify_all()
@@ -347,11 +360,11 @@ class BatterySimServer:
         rospy.logerr('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
                      '(hold); keeping %s', rospy.resolve_name(topics.MODE_PARAM), raw_mode, self.model.mode.value)
 
-    def _publish_state(self, snapshot, load_w=0.0, publish_now=False):
+    def _publish_state(self, snapshot, load_w=0.0, publish_now=False, update=0):
         with self._lock:
             faults = set(self._faults)
         msg = to_sim_state(snapshot, self.params, stamp=rospy.Time.now(), load_power_w=load_w, faults=faults)
-        msg.publish_now = publish_now
+        msg.publish_now, msg.update = publish_now, update
         if 'measurement_noise' in faults:
             battery = msg.battery
             battery.voltage += self._noise.gauss(0.0, self.params.voltage_noise_v)

@@ -23,6 +23,7 @@ server is back.
 :Publishes:
   - ``battery_status`` (sensor_msgs/BatteryState)
   - ``battery_low``, ``battery_critical`` (std_msgs/Bool, latched)
+  - ``battery_simulator/status_sent`` (std_msgs/UInt64): a service's change is out (the server then replies)
   - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): status "<node>: Battery"
 """
 import math
@@ -33,7 +34,7 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
 from diagnostic_updater import Updater
 from sensor_msgs.msg import BatteryState
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.msg import BatterySimState
@@ -91,6 +92,7 @@ class BatteryStatePublisher:
         self._updater = Updater()
         self._updater.setHardwareID('none')
         self._updater.add('Battery', self._diagnose)
+        self._sent_pub = rospy.Publisher(topics.STATUS_SENT, UInt64, queue_size=10)
         self._sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
 
     def _on_state(self, msg):
@@ -103,6 +105,8 @@ class BatteryStatePublisher:
                 self._alarm_pubs[name].publish(Bool(data=alarm.active))
         if msg.publish_now or (changed and self._published_status is not None):
             self.publish_once()   # a service's change or a status change goes out at once, not at the next tick
+        if msg.publish_now:
+            self._sent_pub.publish(UInt64(data=msg.update))   # the server's service may reply now
         if msg.battery.serial_number:
             self._updater.setHardwareID(msg.battery.serial_number)
 

@@ -6,6 +6,8 @@ MODE_PARAM = 'MyRobot/BatteryStatus'
 ACTION = 'battery_simulator'
 #: the server's state after every update (battery_simulator/BatterySimState)
 STATE_TOPIC = 'battery_simulator/state'
+#: std_msgs/UInt64 from battery_state_pub: the publish_now update it has sent on battery_status
+STATUS_SENT = 'battery_simulator/status_sent'
 #: sensor_msgs/BatteryState, published by battery_state_pub
 BATTERY_STATUS = 'battery_status'
 BATTERY_LOW = 'battery_low'
