@@ -1,8 +1,11 @@
 #!/usr/bin/python3
 """rostest: sim.launch inside <group ns="robot1">, and battery_state_pub
 riding out a server that dies and comes back (robot2)."""
+import math
 import os
 import subprocess
+import threading
+import time
 import unittest
 
 import actionlib
@@ -12,11 +15,15 @@ from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
+from std_msgs.msg import UInt64
 
-from battery_simulator.msg import battery_simAction, battery_simGoal
+from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
+from battery_simulator.srv import SetState
 from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 ROBOT2 = 'robot2/battery_state_pub: Battery'
+ACK_DELAY_S = 0.5   # below the server's 1 s bound on the wait
+NAN = math.nan
 
 
 def start_server(namespace, time_scale=1000):
@@ -93,6 +100,34 @@ class TestNamespaceAndStale(unittest.TestCase):
         self.assertTrue(client.wait_for_result(rospy.Duration(10.0)), 'the goal did not end')
         self.assertEqual(client.get_state(), GoalStatus.PREEMPTED)
         self.assertIn('server shutting down', client.get_result().battery_status)
+
+
+    def test_a_service_replies_after_battery_state_pub_has_sent_the_change(self):
+        # robot4 has no battery_state_pub: the test plays it, acking each publish_now update late
+        server = start_server('robot4')
+        self.addCleanup(stop_process, server)
+        rospy.wait_for_service('/robot4/battery_simulator/set_state', 30.0)
+        set_state = rospy.ServiceProxy('/robot4/battery_simulator/set_state', SetState)
+        started = time.monotonic()
+        self.assertTrue(set_state(50.0, NAN, NAN).success)
+        self.assertLess(time.monotonic() - started, ACK_DELAY_S, 'nobody to ack: the reply does not wait')
+
+        sent = rospy.Publisher('/robot4/battery_simulator/status_sent', UInt64, queue_size=10)
+        urgent = []
+
+        def ack_late(state):
+            if state.publish_now:
+                urgent.append(state)
+                threading.Timer(ACK_DELAY_S, sent.publish, (UInt64(data=state.update),)).start()
+        states = rospy.Subscriber('/robot4/battery_simulator/state', BatterySimState, ack_late)
+        self.addCleanup(states.unregister)
+        wait_for(lambda: sent.get_num_connections() > 0, 10.0, 'the server subscribed to status_sent')
+        started = time.monotonic()
+        self.assertTrue(set_state(30.0, NAN, NAN).success)
+        self.assertGreaterEqual(time.monotonic() - started, ACK_DELAY_S, 'the reply waits for the ack')
+        # at time x1000 the 100 ms since the last update would drain 0.4 %: the change comes after it
+        self.assertAlmostEqual(urgent[-1].battery.percentage, 0.30, delta=0.001)
+        self.assertGreater(urgent[-1].update, 0)
 
 
 if __name__ == '__main__':

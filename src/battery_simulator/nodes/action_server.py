@@ -237,6 +237,11 @@ class BatterySimServer:
             self._wake = True
             self._lock.notify_all()
 
+    def _advance_to_now(self):
+        """Step the model up to this moment (self._lock held) before a change, so that the change
+        does not act on the time before it (one update period: 100 s of battery at time x1000, 10 Hz)."""
+        self.model.step(self._time_base.elapsed(self._clock()))
+
     def _publish_change_now(self):
         """A service changed the model (self._lock held): the next update carries the change and
         battery_state_pub sends it on battery_status at once. Waits (bounded) until it has, so the
@@ -344,6 +349,7 @@ class BatterySimServer:
     def _set_mode(self, mode, source):
         """Set the mode and the parameter together (a goal, the charger contact, set_charging)."""
         with self._lock:
+            self._advance_to_now()
             self._mode_generation += 1
             rospy.set_param(topics.MODE_PARAM, 1 if mode is Mode.CHARGE else 0)
             self._mode_source = source
@@ -469,6 +475,7 @@ class BatterySimServer:
             return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number >= 0 W'
                                    % power_w)
         with self._lock:
+            self._advance_to_now()
             if power_w > 0.0:
                 self._payloads[name] = power_w
             else:
@@ -484,6 +491,7 @@ class BatterySimServer:
         percentage = given(request.percentage)
         try:
             with self._lock:
+                self._advance_to_now()
                 self.model.set_state(None if percentage is None else percentage / 100.0,
                                      given(request.temperature_c), given(request.state_of_health))
                 self._publish_change_now()
@@ -493,6 +501,7 @@ class BatterySimServer:
 
     def _reset(self, request):
         with self._lock:
+            self._advance_to_now()
             self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
                                  max(1e-9, 1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
             self.model.discharged_ah = 0.0
@@ -504,6 +513,7 @@ class BatterySimServer:
             return InjectFaultResponse(success=False, message='unknown fault %r; known faults: %s' % (
                 request.fault, '; '.join('%s (%s)' % item for item in sorted(FAULTS.items()))))
         with self._lock:
+            self._advance_to_now()
             if request.active:
                 self._faults.add(request.fault)
             else:
@@ -519,6 +529,7 @@ class BatterySimServer:
         """Apply live changes, validated like the start-up values; a refused change keeps the old value."""
         time_scale = config['time_scale']
         with self._lock:
+            self._advance_to_now()   # the time so far at the old settings (and time_scale)
             if not (is_number(time_scale) and time_scale > 0):
                 rospy.logerr('time_scale = %r is invalid: must be a number > 0; keeping %g',
                              time_scale, self._time_base.time_scale)
