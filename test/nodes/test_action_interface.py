@@ -91,7 +91,9 @@ class TestActionInterface(unittest.TestCase):
         self.assertGreaterEqual(len(feedback), updates - 2, 'feedback at every model update')
         self.assertTrue(all(0.0 <= f <= 100.0 for f in feedback))
         self.assertEqual(feedback, sorted(feedback), 'charging never lowers the level')
-        self.assertLess(feedback[0], 80.0)
+        # from the start, 79.5 %: SimpleActionClient drops feedback that beats send_goal's return
+        # (its gh is not set yet), and the next is an update (100 s of charge at time x1000) later
+        self.assertLess(feedback[0], 81.0)
         self.assertGreater(feedback[-1], 97.0, 'feedback runs up to full')
         full = self.status.wait_until(lambda m: m.power_supply_status == BatteryState.POWER_SUPPLY_STATUS_FULL,
                                       10.0, 'FULL on battery_status')
