@@ -130,7 +130,8 @@ class BatterySimServer:
     """The action server, the worker thread that steps the model, and the controls.
 
     Lock order: ``self._lock`` (a Condition) guards the model, the mode
-    bookkeeping, the loads and the faults; it is taken last and held briefly.
+    bookkeeping, the loads and the faults; it is taken last and held briefly (a
+    service waiting for its change to go out releases it in Condition.wait_for).
     Goals are taken, fed and ended only by the worker thread, never while it
     holds ``self._lock``, so actionlib's own locks are always taken first.
     """
