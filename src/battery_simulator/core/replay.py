@@ -168,16 +168,10 @@ def _write_file(path, rows):
             _write(stream, rows)
         os.replace(partial, path)
     except OSError as error:
-        _remove(partial)
         sys.exit('battery_replay: cannot write %s: %s' % (path, error.strerror))
-    except BaseException:
-        _remove(partial)
-        raise
-
-
-def _remove(path):
-    with contextlib.suppress(OSError):
-        os.remove(path)
+    finally:
+        with contextlib.suppress(OSError):   # gone already once renamed
+            os.remove(partial)
 
 
 def _write(stream, rows):
