@@ -45,6 +45,7 @@ import math
 import random
 import threading
 import time
+from contextlib import contextmanager
 from dataclasses import replace
 
 import actionlib
@@ -243,19 +244,23 @@ class BatterySimServer:
         does not act on the time before it (one update period: 100 s of battery at time x1000, 10 Hz)."""
         self.model.step(self._time_base.elapsed(self._clock()))
 
-    def _publish_change_now(self):
-        """A service changed the model (self._lock held): the next update carries the change and
-        battery_state_pub sends it on battery_status at once. Waits (bounded) until it has, so the
-        caller's reply comes after that battery_status: the next one the caller sees shows the change."""
-        wanted = self._updates + 1
-        self._urgent_update = wanted
-        self._wake_up()
-        deadline = time.monotonic() + SERVICE_PUBLISH_WAIT_S
-        self._lock.wait_for(lambda: self._published_update >= wanted or self._stopping.is_set(),
-                            SERVICE_PUBLISH_WAIT_S)
-        if self._sent_sub.get_num_connections() > 0:   # a battery_state_pub is there to say so
-            self._lock.wait_for(lambda: self._sent_update >= wanted or self._stopping.is_set(),
-                                max(0.0, deadline - time.monotonic()))
+    @contextmanager
+    def _service_change(self):
+        """Hold self._lock around a service's change. The model is first stepped to now; after the
+        change the next update carries it and battery_state_pub sends it on battery_status at once.
+        Waits (bounded) until it has, so the caller's reply comes after that battery_status (without
+        a battery_state_pub to acknowledge, until the state is published). A change that raises
+        (refused) is not waited for."""
+        with self._lock:
+            self._advance_to_now()
+            yield
+            wanted = self._updates + 1
+            self._urgent_update = wanted
+            acknowledged = self._sent_sub.get_num_connections() > 0
+            self._wake_up()
+            self._lock.wait_for(lambda: self._stopping.is_set() or (
+                self._published_update >= wanted and (not acknowledged or self._sent_update >= wanted)),
+                SERVICE_PUBLISH_WAIT_S)
 
     def _on_status_sent(self, msg):
         with self._lock:
@@ -312,10 +317,10 @@ class BatterySimServer:
             state = self.model.export_state()
             load_w = motion_w + sum(self._payloads.values())
             self._updates += 1
-            update = self._updates
+            update, urgent = self._updates, self._updates == self._urgent_update
         if self._time_base.restarts != restarts:
             rospy.logwarn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
-        self._publish_state(snapshot, load_w, publish_now=update == self._urgent_update, update=update)
+        self._publish_state(snapshot, load_w, publish_now=urgent, update=update)
         with self._lock:
             self._published_update = update
             self._lock.notify_all()
@@ -455,9 +460,8 @@ class BatterySimServer:
         self._change_contact(bool(msg.data), 'charger contact')
 
     def _set_charging(self, request):
-        with self._lock:
+        with self._service_change():
             self._change_contact(bool(request.data), 'set_charging')
-            self._publish_change_now()
         return SetBoolResponse(success=True, message='charger %s' % ('connected' if request.data else 'disconnected'))
 
     def _change_contact(self, connected, source):
@@ -475,15 +479,13 @@ class BatterySimServer:
         if not (math.isfinite(power_w) and power_w >= 0.0):
             return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number >= 0 W'
                                    % power_w)
-        with self._lock:
-            self._advance_to_now()
+        with self._service_change():
             if power_w > 0.0:
                 self._payloads[name] = power_w
             else:
                 self._payloads.pop(name, None)
             self.model.set_extra_load('payload', power_w=sum(self._payloads.values()))
             total = sum(self._payloads.values())
-            self._publish_change_now()
         return SetLoadResponse(success=True, message='%s: %g W; payload loads now %g W' % (name, power_w, total))
 
     def _set_state(self, request):
@@ -491,37 +493,31 @@ class BatterySimServer:
             return None if math.isnan(value) else value
         percentage = given(request.percentage)
         try:
-            with self._lock:
-                self._advance_to_now()
+            with self._service_change():
                 self.model.set_state(None if percentage is None else percentage / 100.0,
                                      given(request.temperature_c), given(request.state_of_health))
-                self._publish_change_now()
         except ValueError as error:
             return SetStateResponse(success=False, message=str(error).replace('state_of_charge', 'percentage/100'))
         return SetStateResponse(success=True, message='state set')
 
     def _reset(self, request):
-        with self._lock:
-            self._advance_to_now()
+        with self._service_change():
             self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
                                  max(1e-9, 1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
             self.model.discharged_ah = 0.0
-            self._publish_change_now()
         return TriggerResponse(success=True, message='reset to %.1f %%, mode kept' % (100.0 * self._initial_soc))
 
     def _inject_fault(self, request):
         if request.fault not in FAULTS:
             return InjectFaultResponse(success=False, message='unknown fault %r; known faults: %s' % (
                 request.fault, '; '.join('%s (%s)' % item for item in sorted(FAULTS.items()))))
-        with self._lock:
-            self._advance_to_now()
+        with self._service_change():
             if request.active:
                 self._faults.add(request.fault)
             else:
                 self._faults.discard(request.fault)
             if request.fault == 'charger_fault':
                 self.model.set_charger_fault(request.active)
-            self._publish_change_now()
         rospy.logwarn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
         return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
                                                                       else 'cleared'))
@@ -529,8 +525,7 @@ class BatterySimServer:
     def _reconfigure_callback(self, config, level):
         """Apply live changes, validated like the start-up values; a refused change keeps the old value."""
         time_scale = config['time_scale']
-        with self._lock:
-            self._advance_to_now()   # the time so far at the old settings (and time_scale)
+        with self._service_change():   # the time so far at the old settings (and time_scale)
             if not (is_number(time_scale) and time_scale > 0):
                 rospy.logerr('time_scale = %r is invalid: must be a number > 0; keeping %g',
                              time_scale, self._time_base.time_scale)
@@ -543,7 +538,6 @@ class BatterySimServer:
                 rospy.logerr('dynamic_reconfigure: %s; keeping the previous values', error)
                 params = self.params
             self.params = self.model.params = params
-            self._publish_change_now()
         for name in LIVE_PARAMETERS:
             config[name] = getattr(params, name)
         return config
