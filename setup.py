@@ -3,6 +3,7 @@ from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
 setup(**generate_distutils_setup(
-    packages=['battery_simulator', 'battery_simulator.core', 'battery_simulator.nodes'],
+    packages=['battery_simulator', 'battery_simulator.core', 'battery_simulator.battery',
+              'battery_simulator.robot', 'battery_simulator.cli', 'battery_simulator.ros'],
     package_dir={'': 'src'},
 ))

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
 """Plots a battery run (replay CSV or rosbag of battery_status) into a PNG."""
-from battery_simulator.nodes.plot import main
+from battery_simulator.cli.plot import main
 
 main()

@@ -30,7 +30,7 @@ done
 paths=()
 for module in "${modules[@]}"; do
   case $module in
-    battery_state) paths+=("src/battery_simulator/nodes/battery_state.py") ;;
+    battery_state) paths+=("src/battery_simulator/battery/battery_state.py") ;;
     *) paths+=("src/battery_simulator/core/$module.py") ;;
   esac
 done

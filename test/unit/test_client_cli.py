@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.nodes.client_cli import CHOICES, parse_arguments
+from battery_simulator.cli.client_cli import CHOICES, parse_arguments
 
 SRC = Path(__file__).resolve().parents[2] / 'src'
 
@@ -40,7 +40,7 @@ def test_bad_seconds_name_the_value(option, text, message, capsys):
 
 def run_cli(*argv):
     """main(argv) in a fresh interpreter: the exit code, stderr, and whether rospy got imported."""
-    code = ('import sys\nfrom battery_simulator.nodes.client_cli import main\n'
+    code = ('import sys\nfrom battery_simulator.cli.client_cli import main\n'
             'try:\n    main(%r)\nexcept SystemExit as exit:\n'
             '    print(exit.code, "rospy" in sys.modules)\n' % (list(argv),))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(SRC), os.environ.get('PYTHONPATH', '')]))

@@ -5,7 +5,7 @@ import threading
 
 import pytest
 
-from battery_simulator.nodes.interrupt import Cancelled, StopRequest, wait_in_wall_time
+from battery_simulator.cli.interrupt import Cancelled, StopRequest, wait_in_wall_time
 
 
 @pytest.fixture

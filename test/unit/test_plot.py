@@ -6,11 +6,11 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-plot = pytest.importorskip('battery_simulator.nodes.plot', reason='needs the devel space (tools/run_tests.sh)')
+plot = pytest.importorskip('battery_simulator.cli.plot', reason='needs the devel space (tools/run_tests.sh)')
 
 
 def run_plot(*args):
-    code = 'from battery_simulator.nodes.plot import main; main()'
+    code = 'from battery_simulator.cli.plot import main; main()'
     return subprocess.run([sys.executable, '-c', code, *map(str, args)], capture_output=True, text=True, timeout=120)
 
 

@@ -45,5 +45,5 @@ def main(argv=None):
     signal.signal(signal.SIGTERM, _quit_while_starting)
     argv = sys.argv[1:] if argv is None else argv
     args = parse_arguments([arg for arg in argv if ROS_REMAP not in arg])
-    from battery_simulator.nodes import client   # replaces the handlers once it can cancel a goal
+    from battery_simulator.cli import client   # replaces the handlers once it can cancel a goal
     client.run(args)

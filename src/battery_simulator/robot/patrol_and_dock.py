@@ -32,8 +32,8 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, String
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import checked_param, init_node, is_number
+from battery_simulator.ros import topics
+from battery_simulator.ros.startup import checked_param, init_node, is_number
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 CONTROL_RATE_HZ = 20.0

@@ -24,8 +24,8 @@ import tf2_ros
 from geometry_msgs.msg import Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
-from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import checked_param, init_node, is_number
+from battery_simulator.ros import topics
+from battery_simulator.ros.startup import checked_param, init_node, is_number
 
 
 def read_settings():

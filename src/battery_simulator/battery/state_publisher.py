@@ -38,8 +38,8 @@ from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.msg import BatterySimState
-from battery_simulator.nodes import topics
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, init_node, is_number,
+from battery_simulator.ros import topics
+from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number,
                                                     signals_held)
 
 DIAGNOSTIC_PERIOD_S = 0.5   # diagnostics at least this often (wall time: a paused sim clock does not stop them)

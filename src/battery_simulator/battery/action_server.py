@@ -61,11 +61,11 @@ from battery_simulator.core.parameters import ParameterError, default_config_pat
 from battery_simulator.core.time_base import TimeBase
 from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
                                    battery_simResult)
-from battery_simulator.nodes import topics
-from battery_simulator.nodes.battery_state import to_sim_state
-from battery_simulator.nodes.ros_parameters import (StartupError, checked_param, init_node, is_number,
+from battery_simulator.ros import topics
+from battery_simulator.battery.battery_state import to_sim_state
+from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number,
                                                     signals_held, wait_for_rosout)
-from battery_simulator.nodes.saved_state import StateStore
+from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
                                    SetStateResponse)
 

@@ -17,7 +17,7 @@ import rospy
 from geometry_msgs.msg import Twist
 
 from battery_simulator.msg import BatterySimState
-from battery_simulator.nodes import topics
+from battery_simulator.ros import topics
 
 
 class CmdVelGate:

@@ -21,8 +21,8 @@ from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from battery_simulator.nodes.client_cli import CHOICES
-from battery_simulator.nodes.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
+from battery_simulator.cli.client_cli import CHOICES
+from battery_simulator.cli.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
 
 SUPPLY_STATUS = {BatteryState.POWER_SUPPLY_STATUS_CHARGING: 'charging',
                  BatteryState.POWER_SUPPLY_STATUS_DISCHARGING: 'discharging',

@@ -1,0 +1,1 @@
+"""The battery's ROS side: the action server, the BatteryState publisher and what they share."""

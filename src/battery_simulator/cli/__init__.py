@@ -1,0 +1,1 @@
+"""Command-line programs: the action client and the plotter."""

@@ -1,0 +1,1 @@
+"""What every node shares: the interface's names and the start-up parameter checks."""
