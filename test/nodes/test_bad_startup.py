@@ -7,6 +7,7 @@ before the checks; each check then reads its own node's output."""
 import concurrent.futures
 import itertools
 import os
+import socket
 import subprocess
 import tempfile
 import unittest
@@ -124,6 +125,29 @@ class TestBadStartup(unittest.TestCase):
             self.assertIsNone(server.poll(), 'the server refused numeric text (exit %s)' % server.poll())
         finally:
             stop_process(server)
+
+    def test_a_bad_value_stops_a_respawning_launch_with_one_line(self):
+        # sim.launch respawns the server: a bad value used to print the same FATAL line every 2 s for ever
+        port = free_port()
+        environment = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d' % port)
+        launch = subprocess.Popen(['roslaunch', '-p', str(port), 'battery_simulator',
+                                   'sim.launch', 'time_scale:=-3'], env=environment, stdout=subprocess.PIPE,
+                                  stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        try:
+            output, _ = launch.communicate(timeout=STARTUP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            stop_process(launch)
+            self.fail('the launch went on (respawning) instead of stopping')
+        fatal = [line for line in output.splitlines() if 'FATAL' in line]
+        self.assertEqual(len(fatal), 1, 'one fatal line expected:\n%s' % output)
+        self.assertIn('time_scale = -3', fatal[0])
+        self.assertIn('stopping the launch', fatal[0])
+
+
+def free_port():
+    with socket.socket() as probe:
+        probe.bind(('127.0.0.1', 0))
+        return probe.getsockname()[1]
 
 
 if __name__ == '__main__':

@@ -4,7 +4,7 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, OcvCurve, Status
+from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, OcvCurve, Status
 from battery_simulator.core.parameters import BatteryParameters, preset
 
 #: the default cell with temperature-independent resistances (linear OCV 2.8..4.2 V)
@@ -42,7 +42,21 @@ def test_fractions_are_checked_with_one_line():
     model = BatteryModel(PLAIN)
     assert error_of(model.set_state, state_of_charge=True) == 'state_of_charge = True is invalid: must be in [0, 1]'
     assert error_of(model.set_state, state_of_health=1.5) == 'state_of_health = 1.5 is invalid: must be in [0, 1]'
-    assert error_of(model.set_state, state_of_health=0.0) == 'state_of_health = 0.0 is invalid: must be in (0, 1]'
+    assert error_of(model.set_state, state_of_health=0.0) == 'state_of_health = 0.0 is invalid: must be in [0.01, 1]'
+    # 1e-20 was accepted: ageing then took it to exactly 0 and a division by zero killed the server's worker
+    assert error_of(model.set_state, state_of_health=1e-20) == \
+        'state_of_health = 1e-20 is invalid: must be in [0.01, 1]'
+
+
+def test_ageing_never_takes_the_capacity_to_zero():
+    model = BatteryModel(PLAIN, state_of_charge=1.0)
+    model.set_state(state_of_health=MIN_STATE_OF_HEALTH)
+    model.params = replace(PLAIN, capacity_fade_per_cycle=0.009)
+    for _ in range(200):   # far more discharge than the pack holds: the floor holds, nothing divides by zero
+        model.step(3600.0, current_a=-PLAIN.cell_max_discharge_current_a)
+        model.step(3600.0, current_a=PLAIN.cell_max_charge_current_a)
+    assert model.state_of_health == MIN_STATE_OF_HEALTH and model.capacity_ah > 0.0
+    assert 0.0 <= model.snapshot().percentage <= 100.0
 
 
 @pytest.mark.parametrize('temperature_c', [-60.5, 150.5, float('nan'), 'hot'])

@@ -49,11 +49,16 @@ REJECTED = [
     ('capacity_fade_per_cycle', 0.01, 'a number in [0, 0.01)'),
     ('capacity_fade_per_cycle', -1e-6, 'a number in [0, 0.01)'),
     ('initial_cycle_count', -1.0, 'a number >= 0'),
-    ('drive_power_w_per_mps', -1.0, 'a number >= 0'),
-    ('turn_power_w_per_radps', -1.0, 'a number >= 0'),
+    ('drive_power_w_per_mps', -1.0, 'a number in [0, 10000] W/(m/s)'),
+    ('drive_power_w_per_mps', 1e308, 'a number in [0, 10000] W/(m/s)'),   # its power would overflow
+    ('turn_power_w_per_radps', -1.0, 'a number in [0, 10000] W/(rad/s)'),
+    ('turn_power_w_per_radps', 10000.001, 'a number in [0, 10000] W/(rad/s)'),
     ('cmd_vel_timeout_s', 0.0, 'a number > 0'),
-    ('voltage_noise_v', -0.1, 'a number >= 0'),
-    ('current_noise_a', -0.1, 'a number >= 0'),
+    ('voltage_noise_v', -0.1, 'a number in [0, 1] V'),
+    ('voltage_noise_v', 1.0e308, 'a number in [0, 1] V'),   # the first noisy publish overflowed
+    ('voltage_noise_v', 1.0e6, 'a number in [0, 1] V'),     # reported negative voltages
+    ('current_noise_a', -0.1, 'a number in [0, 5] A'),
+    ('current_noise_a', 5.001, 'a number in [0, 5] A'),
     ('location', None, 'a string'),
     ('serial_number', 5, 'a string'),
     ('source', None, 'a string'),
@@ -66,7 +71,8 @@ ACCEPTED = [
     ('ambient_temperature_c', -60.0), ('ambient_temperature_c', 100.0), ('initial_temperature_c', -60.0),
     ('initial_temperature_c', 100.0), ('arrhenius_temperature_k', 0.0), ('reference_temperature_c', -60.0),
     ('reference_temperature_c', 100.0), ('protection_temperature_c', 150.0), ('capacity_fade_per_cycle', 0.0),
-    ('initial_cycle_count', 0.0), ('voltage_noise_v', 0.0), ('location', ''),
+    ('initial_cycle_count', 0.0), ('voltage_noise_v', 0.0), ('voltage_noise_v', 1.0), ('current_noise_a', 5.0),
+    ('drive_power_w_per_mps', 10000.0), ('turn_power_w_per_radps', 10000.0), ('location', ''),
     ('overheat_temperature_c', 75.0),          # equal to the protection temperature
     ('charge_current_a', 4.0),                 # cell_max_charge_current_a x 1
     ('load_current_a', 20.0),                  # cell_max_discharge_current_a x 1
@@ -103,7 +109,9 @@ def test_values_on_a_boundary_are_allowed(name, value):
     ({'cell_cutoff_voltage_v': 4.2}, 'cell_cutoff_voltage_v', 'below cell_charge_voltage_v (4.2 V)'),
     ({'cold_temperature_c': 60.0}, 'cold_temperature_c', 'below overheat_temperature_c (60 degC)'),
     ({'termination_current_a': 1.5}, 'termination_current_a', 'below charge_current_a (1.5 A)'),
-    ({'charge_current_a': 0.1}, 'termination_current_a', 'below charge_current_a (0.1 A)'),  # C/20 = 0.139 A
+    # with the C/20 default (0.139 A here) the charge current is what is too low, not a termination 'None'
+    ({'charge_current_a': 0.1}, 'charge_current_a',
+     'above the termination current (C/20 = 0.139 A; set termination_current_a for another)'),
     ({'overheat_temperature_c': 75.5}, 'overheat_temperature_c', 'at most protection_temperature_c (75 degC)'),
     ({'charge_current_a': 4.001}, 'charge_current_a', 'at most 4 A (cell_max_charge_current_a x cells_parallel)'),
     ({'cells_parallel': 2, 'charge_current_a': 8.5}, 'charge_current_a',

@@ -117,3 +117,20 @@ def test_numeric_text_from_roslaunch_is_read_as_a_number():
     assert ros_parameters.number_from_text(' 22 ') == 22.0
     assert ros_parameters.number_from_text('fast') == 'fast'
     assert ros_parameters.number_from_text(3) == 3
+
+
+def test_numbers_that_yaml_reads_as_text_are_numbers(tmp_path):
+    # PyYAML reads a float without a dot or an exponent sign ("1.0e6", "1e3") as text;
+    # launch arguments accept numeric text, so the config file does too.
+    path = tmp_path / 'battery.yaml'
+    path.write_text('load_power_w: 1.0e1\ncharge_current_a: 2e0\nocv_voltage_v: [2.5e0, 3.6, 4.25]\n'
+                    'ocv_soc: [0, 0.5, 1]\n')
+    params = load_yaml(path)
+    assert (params.load_power_w, params.charge_current_a) == (10.0, 2.0)
+    assert params.ocv_voltage_v == (2.5, 3.6, 4.25)
+    path.write_text('voltage_noise_v: 1.0e+308\n')
+    with pytest.raises(ParameterError, match=r'voltage_noise_v = 1e\+308 is invalid: must be a number in \[0, 1\] V'):
+        load_yaml(path)
+    path.write_text('load_power_w: 1.0e6x\n')
+    with pytest.raises(ParameterError, match="load_power_w = '1.0e6x' is invalid"):
+        load_yaml(path)

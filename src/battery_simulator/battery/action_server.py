@@ -52,19 +52,20 @@ import actionlib
 import rospy
 from dynamic_reconfigure.server import Server as ReconfigureServer
 from geometry_msgs.msg import Twist
+from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
 from battery_simulator.cfg import BatterySimConfig
-from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
 from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
 from battery_simulator.core.time_base import TimeBase
 from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
                                    battery_simResult)
 from battery_simulator.ros import topics
 from battery_simulator.battery.battery_state import to_sim_state
-from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number,
-                                                    signals_held, wait_for_rosout)
+from battery_simulator.ros.startup import (StartupError, checked_param, ending_the_node_on_error, init_node,
+                                           is_number, signals_held, wait_for_rosout)
 from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
                                    SetStateResponse)
@@ -72,6 +73,9 @@ from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, Se
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 INVALID_LOG_PERIOD_S = 10.0
 OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
+LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
+MAX_SPEED_MPS = 50.0      # a cmd_vel beyond these is no robot's and is ignored (its power would overflow)
+MAX_TURN_RADPS = 50.0
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
 FAULTS = {
     'charger_fault': 'charger connected but no current flows',
@@ -142,6 +146,7 @@ class BatterySimServer:
         self._period_s = 1.0 / update_rate
         self._initial_soc = initial_percentage / 100.0
         self._sim_time = bool(rospy.get_param('/use_sim_time', False))
+        self._time_scale = time_scale      # as configured (the time base ignores it under sim time)
         if self._sim_time:
             self._clock, self._time_base = rospy.get_time, TimeBase(1.0, zero_is_unset=True)
         else:
@@ -221,7 +226,7 @@ class BatterySimServer:
 
     def _start_reconfigure(self):
         # Seed the server with the values in force, so that it does not impose the .cfg defaults.
-        rospy.set_param('~time_scale', self._time_base.time_scale)
+        rospy.set_param('~time_scale', self._time_scale)
         for name in LIVE_PARAMETERS:
             rospy.set_param('~' + name, getattr(self.params, name))
         return ReconfigureServer(BatterySimConfig, self._reconfigure_callback)
@@ -270,6 +275,10 @@ class BatterySimServer:
     # -- the worker thread ----------------------------------------------------
 
     def _run(self):
+        with ending_the_node_on_error('the battery model worker'):
+            self._run_updates()
+
+    def _run_updates(self):
         next_update = time.monotonic()
         while not self._stopping.is_set():
             with self._lock:
@@ -301,8 +310,8 @@ class BatterySimServer:
         with self._lock:
             generation = self._mode_generation
         raw_mode = self._read_mode_param()
-        now = self._clock()
-        with self._lock:
+        with self._lock:   # the clock is read under the lock: a service may step the model to its own now
+            now = self._clock()
             restarts = self._time_base.restarts
             dt_s = self._time_base.elapsed(now)
             if generation == self._mode_generation:  # else the mode was set meanwhile, and stands
@@ -379,8 +388,9 @@ class BatterySimServer:
         msg.publish_now, msg.update = publish_now, update
         if 'measurement_noise' in faults:
             battery = msg.battery
-            battery.voltage += self._noise.gauss(0.0, self.params.voltage_noise_v)
-            battery.current += self._noise.gauss(0.0, self.params.current_noise_a)
+            battery.voltage = noisy_voltage(battery.voltage, self._noise.gauss(0.0, self.params.voltage_noise_v))
+            battery.current = noisy_current(battery.current, self._noise.gauss(0.0, self.params.current_noise_a),
+                                            battery.power_supply_status)
             battery.cell_voltage = [battery.voltage / len(battery.cell_voltage)] * len(battery.cell_voltage)
         self._state_pub.publish(msg)
 
@@ -450,8 +460,10 @@ class BatterySimServer:
 
     def _on_cmd_vel(self, twist):
         speed, turn = abs(twist.linear.x), abs(twist.angular.z)
-        if not (math.isfinite(speed) and math.isfinite(turn)):
-            rospy.logerr_throttle(10.0, 'ignoring a cmd_vel with a non-finite speed (%r, %r)', speed, turn)
+        if not (speed <= MAX_SPEED_MPS and turn <= MAX_TURN_RADPS):   # also NaN
+            rospy.logerr_throttle(10.0, 'ignoring a cmd_vel beyond what a robot can do (|linear.x| %r m/s, '
+                                  '|angular.z| %r rad/s; at most %g and %g)', speed, turn, MAX_SPEED_MPS,
+                                  MAX_TURN_RADPS)
             return
         with self._lock:
             self._motion = (self._clock(), speed, turn)
@@ -469,17 +481,22 @@ class BatterySimServer:
         with self._lock:
             changed, self._contact = connected != self._contact, connected
         if changed:
-            rospy.loginfo('%s: charger %s', source, 'connected' if connected else 'disconnected')
+            rospy.loginfo_throttle(LOG_PERIOD_S, '%s: charger %s', source, 'connected' if connected else 'disconnected')
             self._set_mode(Mode.CHARGE if connected else Mode.DISCHARGE, source)
 
     def _set_load(self, request):
         name, power_w = request.name.strip(), request.power_w
         if not name:
             return SetLoadResponse(success=False, message='name must not be empty')
-        if not (math.isfinite(power_w) and power_w >= 0.0):
-            return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number >= 0 W'
-                                   % power_w)
+        limit_w = self.params.max_discharge_power_w
+        if not 0.0 <= power_w <= limit_w:   # also NaN
+            return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number in [0, %g] W '
+                                   '(the most the pack can deliver)' % (power_w, limit_w))
         with self._service_change():
+            total_w = sum(p for n, p in self._payloads.items() if n != name) + power_w
+            if total_w > limit_w:
+                return SetLoadResponse(success=False, message='power_w = %g W is invalid: the payload loads would '
+                                       'total %g W, beyond the %g W the pack can deliver' % (power_w, total_w, limit_w))
             if power_w > 0.0:
                 self._payloads[name] = power_w
             else:
@@ -503,9 +520,15 @@ class BatterySimServer:
     def _reset(self, request):
         with self._service_change():
             self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
-                                 max(1e-9, 1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
+                                 max(MIN_STATE_OF_HEALTH,
+                                     1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
             self.model.discharged_ah = 0.0
-        return TriggerResponse(success=True, message='reset to %.1f %%, mode kept' % (100.0 * self._initial_soc))
+            cleared, self._faults = sorted(self._faults), set()   # the start-up state has no faults
+            self.model.set_charger_fault(False)
+        if cleared:
+            rospy.logwarn('reset: faults cleared: %s', ', '.join(cleared))
+        return TriggerResponse(success=True, message='reset to %.1f %%, mode kept%s' % (
+            100.0 * self._initial_soc, '; faults cleared: ' + ', '.join(cleared) if cleared else ''))
 
     def _inject_fault(self, request):
         if request.fault not in FAULTS:
@@ -523,24 +546,47 @@ class BatterySimServer:
                                                                       else 'cleared'))
 
     def _reconfigure_callback(self, config, level):
-        """Apply live changes, validated like the start-up values; a refused change keeps the old value."""
+        """Apply live changes, validated like the start-up values: a refused value is logged and the old one kept.
+
+        The .cfg gives no bounds, so dynamic_reconfigure clamps nothing before this check.
+        """
         time_scale = config['time_scale']
         with self._service_change():   # the time so far at the old settings (and time_scale)
             if not (is_number(time_scale) and time_scale > 0):
-                rospy.logerr('time_scale = %r is invalid: must be a number > 0; keeping %g',
-                             time_scale, self._time_base.time_scale)
-                config['time_scale'] = self._time_base.time_scale
-            elif not self._sim_time:
-                self._time_base.time_scale = time_scale
-            try:
-                params = replace(self.params, **{name: float(config[name]) for name in LIVE_PARAMETERS})
-            except ParameterError as error:
-                rospy.logerr('dynamic_reconfigure: %s; keeping the previous values', error)
-                params = self.params
+                rospy.logerr('dynamic_reconfigure: time_scale = %r is invalid: must be a number > 0; keeping %g',
+                             time_scale, self._time_scale)
+            else:
+                self._time_scale = time_scale
+                if not self._sim_time:
+                    self._time_base.time_scale = time_scale
+            params = self.params
+            for name in LIVE_PARAMETERS:
+                if config[name] == getattr(params, name):
+                    continue
+                try:
+                    params = replace(params, **{name: float(config[name])})
+                except ParameterError as error:
+                    rospy.logerr('dynamic_reconfigure: %s; keeping %g', error, getattr(params, name))
             self.params = self.model.params = params
+        config['time_scale'] = self._time_scale
         for name in LIVE_PARAMETERS:
             config[name] = getattr(params, name)
         return config
+
+
+def noisy_voltage(voltage_v, noise_v):
+    """A noisy voltage reading: never <= 0 or beyond twice the true value (sigma is bounded by the config)."""
+    return min(max(voltage_v + noise_v, 0.5 * voltage_v), 2.0 * voltage_v)
+
+
+def noisy_current(current_a, noise_a, power_supply_status):
+    """A noisy current reading whose sign never contradicts the status (negative discharging, positive charging)."""
+    noisy = current_a + noise_a
+    if power_supply_status == BatteryState.POWER_SUPPLY_STATUS_DISCHARGING:
+        return min(noisy, 0.0)
+    if power_supply_status == BatteryState.POWER_SUPPLY_STATUS_CHARGING:
+        return max(noisy, 0.0)
+    return noisy
 
 
 def _restart_status_timer_on_clock_jumps(action_server):

@@ -39,9 +39,10 @@ from std_msgs.msg import Bool, UInt64
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros import topics
-from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number,
-                                                    signals_held)
+from battery_simulator.ros.startup import (StartupError, checked_param, ending_the_node_on_error, init_node,
+                                           is_number, signals_held)
 
+URGENT_GAP_S = 0.02        # changes published at once, at most one such message per this (a burst: its last state)
 DIAGNOSTIC_PERIOD_S = 0.5   # diagnostics at least this often (wall time: a paused sim clock does not stop them)
 
 
@@ -92,6 +93,10 @@ class BatteryStatePublisher:
         self._updater = Updater()
         self._updater.setHardwareID('none')
         self._updater.add('Battery', self._diagnose)
+        self._urgent = threading.Condition()   # guards the three below; taken before self._lock
+        self._urgent_pending = False           # a change waits to go out at once
+        self._ack_pending = 0                  # the newest publish_now update to acknowledge once it is out
+        self._urgent_sent_at = -URGENT_GAP_S   # monotonic time of the last such message
         self._sent_pub = rospy.Publisher(topics.STATUS_SENT, UInt64, queue_size=10)
         self._sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
 
@@ -104,14 +109,17 @@ class BatteryStatePublisher:
                 rospy.loginfo('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * msg.battery.percentage)
                 self._alarm_pubs[name].publish(Bool(data=alarm.active))
         if msg.publish_now or (changed and self._published_status is not None):
-            self.publish_once()   # a service's change or a status change goes out at once, not at the next tick
-        if msg.publish_now:
-            self._sent_pub.publish(UInt64(data=msg.update))   # the server's service may reply now
+            with self._urgent:   # a service's change or a status change goes out at once, not at the next tick
+                self._urgent_pending = True
+                if msg.publish_now:
+                    self._ack_pending = max(self._ack_pending, msg.update)
+                self._urgent.notify()
         if msg.battery.serial_number:
             self._updater.setHardwareID(msg.battery.serial_number)
 
     def spin(self):
         threading.Thread(target=self._diagnostics_loop, name='diagnostics', daemon=True).start()
+        threading.Thread(target=self._urgent_loop, name='urgent', daemon=True).start()
         rate = rospy.Rate(self._rate_hz, reset=True)   # reset: a /clock jump back restarts the rate
         while not rospy.is_shutdown():
             self.publish_once()
@@ -121,9 +129,28 @@ class BatteryStatePublisher:
                 break
 
     def _diagnostics_loop(self):
-        while not rospy.is_shutdown():
-            self._updater.force_update()
-            time.sleep(DIAGNOSTIC_PERIOD_S)
+        with ending_the_node_on_error('the diagnostics thread'):
+            while not rospy.is_shutdown():
+                self._updater.force_update()
+                time.sleep(DIAGNOSTIC_PERIOD_S)
+
+    def _urgent_loop(self):
+        """Publish changes at once, but a burst of them (a service storm, a flapping contact) as at most one
+        message per URGENT_GAP_S carrying its latest state; then acknowledge the services' updates."""
+        with ending_the_node_on_error('the change publisher thread'):
+            while not rospy.is_shutdown():
+                with self._urgent:
+                    if not self._urgent.wait_for(lambda: self._urgent_pending, DIAGNOSTIC_PERIOD_S):
+                        continue
+                    delay_s = self._urgent_sent_at + URGENT_GAP_S - time.monotonic()
+                if delay_s > 0.0:
+                    time.sleep(delay_s)   # wall time: the gap bounds a message rate
+                with self._urgent:
+                    ack, self._ack_pending, self._urgent_pending = self._ack_pending, 0, False
+                    self._urgent_sent_at = time.monotonic()
+                self.publish_once()
+                if ack:
+                    self._sent_pub.publish(UInt64(data=ack))   # the server's service may reply now
 
     def publish_once(self):
         """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""

@@ -103,6 +103,11 @@ class OcvCurve:
         return min(max(soc, 0.0), 1.0)
 
 
+#: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
+#: set_state stop there), so every capacity the model divides by stays positive
+MIN_STATE_OF_HEALTH = 0.01
+
+
 class BatteryModel:
     """A Li-ion pack: step it with ``step(dt_s)``, read it with ``snapshot()``."""
 
@@ -117,7 +122,8 @@ class BatteryModel:
         self.cell_current_a = 0.0     # the current held over the last step
         self.temperature_c = self.initial_temperature_c
         self.discharged_ah = 0.0      # per cell, since start (for the cycle count)
-        self.state_of_health = max(0.0, 1.0 - params.capacity_fade_per_cycle * params.initial_cycle_count)
+        self.state_of_health = max(MIN_STATE_OF_HEALTH,
+                                   1.0 - params.capacity_fade_per_cycle * params.initial_cycle_count)
         self.status = Status.NOT_CHARGING
         self.cut_off = None           # a CutOff while the protection holds the pack disconnected
         self.charger_fault = False    # charger connected but no current flows
@@ -165,8 +171,9 @@ class BatteryModel:
             raise ValueError('temperature_c = %r is invalid: must be in [-60, 150] degC' % (temperature_c,))
         if state_of_health is not None:
             _check_fraction('state_of_health', state_of_health)
-            if state_of_health <= 0.0:
-                raise ValueError('state_of_health = %r is invalid: must be in (0, 1]' % (state_of_health,))
+            if state_of_health < MIN_STATE_OF_HEALTH:
+                raise ValueError('state_of_health = %r is invalid: must be in [%g, 1]'
+                                 % (state_of_health, MIN_STATE_OF_HEALTH))
         if state_of_charge is not None:
             self.state_of_charge = float(state_of_charge)
             self.rc_voltage_v = 0.0
@@ -294,7 +301,7 @@ class BatteryModel:
         if current < 0.0:
             discharged_ah = -current * dt_s / 3600.0
             self.discharged_ah += discharged_ah
-            self.state_of_health = max(0.0, self.state_of_health
+            self.state_of_health = max(MIN_STATE_OF_HEALTH, self.state_of_health
                                        - p.capacity_fade_per_cycle * discharged_ah / p.cell_capacity_ah)
             self._update_capacity()
         self.state_of_charge = min(max(soc, 0.0), 1.0)

@@ -27,6 +27,20 @@ def _is_number(value):
             and math.isfinite(value))
 
 
+def number_from_text(value):
+    """A numeric string as a float ('1e9', ' 22 '); anything else as it is.
+
+    roslaunch hands some numbers over as text (``time_scale:=1e9``), and so does
+    PyYAML for a float without a dot (``1.0e6`` is a float, ``1e6`` is text).
+    """
+    if isinstance(value, str):
+        try:
+            return float(value.strip())
+        except ValueError:
+            pass
+    return value
+
+
 def _is_count(value):
     return isinstance(value, int) and not isinstance(value, bool) and value >= 1
 
@@ -118,6 +132,12 @@ class BatteryParameters:
         return self.cell_capacity_ah * self.cells_parallel
 
     @property
+    def max_discharge_power_w(self):
+        """The most power the pack can ever deliver, W: its datasheet current at its full voltage."""
+        return (self.cell_max_discharge_current_a * self.cells_parallel
+                * self.cell_charge_voltage_v * self.cells_series)
+
+    @property
     def pack_termination_current_a(self):
         """The CV taper end per pack, A (C/20 unless set)."""
         if self.termination_current_a is None:
@@ -127,6 +147,11 @@ class BatteryParameters:
 
 #: the most cells in series or in parallel a config may ask for
 MAX_CELLS = 200
+#: measurement_noise sigmas: a sensor noisier than this measures nothing
+MAX_VOLTAGE_NOISE_V = 1.0
+MAX_CURRENT_NOISE_A = 5.0
+#: drive / turn power per unit of speed: 10 kW per m/s is already a car's drive train
+MAX_MOTION_POWER_COEFFICIENT = 10000.0
 
 # (parameter, check, what is allowed); checked in this order.
 _RULES = (
@@ -158,11 +183,15 @@ _RULES = (
     ('cold_temperature_c', _is_number, 'a number'),
     ('capacity_fade_per_cycle', lambda v: _is_number(v) and 0 <= v < 0.01, 'a number in [0, 0.01)'),
     ('initial_cycle_count', _non_negative, 'a number >= 0'),
-    ('drive_power_w_per_mps', _non_negative, 'a number >= 0'),
-    ('turn_power_w_per_radps', _non_negative, 'a number >= 0'),
+    ('drive_power_w_per_mps', lambda v: _is_number(v) and 0 <= v <= MAX_MOTION_POWER_COEFFICIENT,
+     'a number in [0, %g] W/(m/s)' % MAX_MOTION_POWER_COEFFICIENT),
+    ('turn_power_w_per_radps', lambda v: _is_number(v) and 0 <= v <= MAX_MOTION_POWER_COEFFICIENT,
+     'a number in [0, %g] W/(rad/s)' % MAX_MOTION_POWER_COEFFICIENT),
     ('cmd_vel_timeout_s', _positive, 'a number > 0'),
-    ('voltage_noise_v', _non_negative, 'a number >= 0'),
-    ('current_noise_a', _non_negative, 'a number >= 0'),
+    ('voltage_noise_v', lambda v: _is_number(v) and 0 <= v <= MAX_VOLTAGE_NOISE_V,
+     'a number in [0, %g] V' % MAX_VOLTAGE_NOISE_V),
+    ('current_noise_a', lambda v: _is_number(v) and 0 <= v <= MAX_CURRENT_NOISE_A,
+     'a number in [0, %g] A' % MAX_CURRENT_NOISE_A),
     ('location', lambda v: isinstance(v, str), 'a string'),
     ('serial_number', lambda v: isinstance(v, str), 'a string'),
     ('source', lambda v: isinstance(v, str), 'a string'),
@@ -186,6 +215,10 @@ def validate(params):
         _fail('cold_temperature_c', params.cold_temperature_c,
               'below overheat_temperature_c (%g degC)' % params.overheat_temperature_c)
     if params.pack_termination_current_a >= params.charge_current_a:
+        if params.termination_current_a is None:   # the C/20 default: the charge current is what is too low
+            _fail('charge_current_a', params.charge_current_a,
+                  'above the termination current (C/20 = %.3g A; set termination_current_a for another)'
+                  % params.pack_termination_current_a)
         _fail('termination_current_a', params.termination_current_a,
               'below charge_current_a (%g A)' % params.charge_current_a)
     if params.overheat_temperature_c > params.protection_temperature_c:
@@ -237,6 +270,7 @@ def _validate_ocv_table(params):
 PARAMETER_NAMES = tuple(f.name for f in fields(BatteryParameters))
 _TABLES = ('ocv_soc', 'ocv_voltage_v')
 _WHOLE_NUMBERS = ('cells_series', 'cells_parallel')
+_NUMBERS = tuple(f.name for f in fields(BatteryParameters) if f.type is float)   # numeric text read as numbers
 
 
 def from_mapping(values, base=None, origin='parameters'):
@@ -263,7 +297,9 @@ def from_mapping(values, base=None, origin='parameters'):
         if key == 'preset':
             continue
         if key in _TABLES and isinstance(value, list):
-            value = tuple(value)
+            value = tuple(number_from_text(v) for v in value)
+        elif key in _NUMBERS:
+            value = number_from_text(value)
         if key not in _WHOLE_NUMBERS and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         changes[key] = value

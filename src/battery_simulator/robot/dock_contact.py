@@ -52,6 +52,11 @@ class DockContact:
     def _on_odom(self, odom):
         position, twist = odom.pose.pose.position, odom.twist.twist
         speed = math.hypot(twist.linear.x, twist.linear.y)
+        if not all(math.isfinite(value) for value in (position.x, position.y, speed)):
+            rospy.logwarn_throttle(10.0, 'ignoring odometry with a non-finite position or speed '
+                                   '(x %r, y %r, speed %r); contact stays %s', position.x, position.y, speed,
+                                   self._contact)
+            return
         contact = in_contact(position.x, position.y, speed, **self._dock)
         with self._lock:
             changed, self._contact = contact != self._contact, contact

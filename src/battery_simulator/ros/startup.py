@@ -1,11 +1,16 @@
 """Start-up parameter checks shared by the nodes: one fatal line, non-zero exit."""
 import contextlib
 import math
+import os
 import signal
 import sys
 import time
 
 import rospy
+
+from battery_simulator.core.parameters import number_from_text
+
+FATAL_FLUSH_S = 0.3   # how long a dying node gives its last line to reach /rosout
 
 
 class StartupError(ValueError):
@@ -14,19 +19,6 @@ class StartupError(ValueError):
 
 def is_number(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def number_from_text(value):
-    """A numeric string as a float ('1e9', ' 22 '); anything else as it is.
-
-    roslaunch hands some numbers over as text (``time_scale:=1e9`` among them).
-    """
-    if isinstance(value, str):
-        try:
-            return float(value.strip())
-        except ValueError:
-            pass
-    return value
 
 
 def checked_param(name, default, check, allowed):
@@ -85,7 +77,45 @@ def init_node(name, read_settings):
 
 
 def exit_on_startup_error(error):
-    """Log one fatal line and exit 1 (roslaunch shows the node as died)."""
-    rospy.logfatal('%s', error)
+    """Log one fatal line, stop the launch that started this node, and exit 1.
+
+    A respawning node (the server) would otherwise be started again every
+    respawn_delay and print the same line for ever: a bad value does not go
+    away by itself. So a node started by roslaunch asks roslaunch to shut
+    down (SIGINT, as Ctrl-C does); respawn still brings back a node that
+    crashed. Under rosrun or rostest the parent is left alone.
+    """
+    launcher = os.getppid()
+    stop_launch = _is_roslaunch(launcher)
+    rospy.logfatal('%s%s', error, '; stopping the launch' if stop_launch else '')
     sys.stderr.flush()
+    if stop_launch:
+        os.kill(launcher, signal.SIGINT)
     sys.exit(1)
+
+
+def _is_roslaunch(pid):
+    try:
+        with open('/proc/%d/cmdline' % pid, 'rb') as stream:
+            arguments = stream.read().split(b'\0')
+    except OSError:
+        return False
+    return any(os.path.basename(argument) == b'roslaunch' for argument in arguments[:2])
+
+
+@contextlib.contextmanager
+def ending_the_node_on_error(what):
+    """Run a node's worker: an exception that escapes it ends the whole node with one FATAL line and exit 1.
+
+    A worker thread that dies leaves a process that looks alive (respawn never
+    helps) but serves a frozen state; ended, it is respawned and resumes from
+    the saved state.
+    """
+    try:
+        yield
+    except Exception as error:   # noqa: B902 (anything: the node cannot go on without its worker)
+        rospy.logfatal('%s failed (%s: %s): ending the node; a respawn resumes from the saved state',
+                       what, type(error).__name__, error)
+        time.sleep(FATAL_FLUSH_S)   # let the line reach /rosout
+        sys.stderr.flush()
+        os._exit(1)
