@@ -6,6 +6,7 @@ a process group of its own, and ends each by its pid.
 """
 import os
 import random
+import resource
 import signal
 import socket
 import statistics
@@ -261,23 +262,99 @@ def measure_cost_and_start(processes, rows):
                  'max %.2f s' % max(starts), '< 3 s'))
 
 
-def measure_fleet(processes, rows):
-    for n in (1, 5, 20):
-        fleet = launch(processes, 'fleet.launch', n=n)
+def threads(pid):
+    with open('/proc/%d/status' % pid) as stream:
+        return next(int(line.split()[1]) for line in stream if line.startswith('Threads:'))
+
+
+def open_files(pid):
+    return len(os.listdir('/proc/%d/fd' % pid))
+
+
+def fleet_host_pids(hosts):
+    names = ['/battery_fleet'] + ['/battery_fleet_%d' % k for k in range(1, hosts)]
+    return list(process_ids(names).values())
+
+
+def measure_fleet(processes, rows, master=None):
+    """fleet.launch at N = 1, 10, 100 (one host) and 1000 (hosts:=4), with every battery_status subscribed."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))   # this process subscribes to every robot
+    for n, hosts, first_target, cpu_target, memory_target in (
+            (1, 1, '', '', ''), (10, 1, '', '', ''), (100, 1, '<= 10 s', '<= 8 %', '<= 100 MB'),
+            (1000, 4, '<= 30 s', '<= 40 %', '<= 500 MB')):
+        arrivals = [Arrivals('/robot%d/battery_status' % i) for i in range(n)]
+        started = time.monotonic()
+        fleet = processes.start(['prlimit', '--nofile=1024:%d' % hard, 'roslaunch', 'battery_simulator',
+                                 'fleet.launch', 'n:=%d' % n, 'hosts:=%d' % hosts])
         try:
-            arrivals = [Arrivals('/robot%d/battery_status' % i) for i in range(n)]
             wait_until(lambda: all(a.count() > 0 for a in arrivals), 120.0, 'every robot publishing')
-            for a in arrivals:
-                a.close()
-            names = ['/robot%d/%s' % (i, node) for i in range(n) for node in ('BatterySimServer', 'battery_state_pub')]
-            pids = list(process_ids(names).values())
+            first_s = max(a.items[0][0] for a in arrivals) - started
+            pids = fleet_host_pids(hosts)
             time.sleep(5.0)
-            cpu = sum(cpu_percent(pids, 20.0).values())
+            marks = [a.count() for a in arrivals]
+            cpu = cpu_percent(pids + ([master.pid] if master else []), 30.0)
+            master_cpu = cpu.pop(master.pid) if master else float('nan')
+            rates = []
+            for arrival, mark in zip(arrivals, marks):
+                times = [t for t, _ in arrival.since(mark)]
+                rates.append((len(times) - 1) / (times[-1] - times[0]))
+            feedback_ms, contact_ms = (robot_latencies('/robot%d' % (n // 2)) if n >= 100 else (None, None))
             memory = sum(rss_mb(pid) for pid in pids)
+            row_threads = sum(threads(pid) for pid in pids)
+            files = sum(open_files(pid) for pid in pids)
         finally:
+            for arrival in arrivals:
+                arrival.close()
             processes.stop(fleet)
-        rows.append(('fleet.launch n:=%d (%d node processes)' % (n, len(pids)), '%.1f %% of one core' % cpu,
-                     '%.0f MB RSS' % memory, '20 robots < 50 % of a core'))
+        name = 'fleet.launch n:=%d hosts:=%d' % (n, hosts)
+        rows.append((name + ': processes, threads, open files', '%d, %d, %d' % (hosts, row_threads, files),
+                     '%.1f threads, %.1f files per robot' % (row_threads / n, files / n), ''))
+        rows.append((name + ': RSS, CPU (every battery_status subscribed)', '%.0f MB, %.1f %% of a core'
+                     % (memory, sum(cpu.values())), 'master %.2f %% of a core' % master_cpu,
+                     ('%s, %s, master <= 5 %%' % (memory_target, cpu_target)) if cpu_target else ''))
+        rows.append((name + ': launch -> every first battery_status', '%.1f s' % first_s,
+                     'rates %.4f .. %.4f Hz (1 Hz)' % (min(rates), max(rates)),
+                     ('%s, rates within 1 %%' % first_target) if first_target else ''))
+        if feedback_ms is not None:
+            rows.append((name + ': robot %d preempting goal -> first feedback' % (n // 2),
+                         '%.1f ms median' % statistics.median(feedback_ms),
+                         'contact -> status %.0f ms median' % statistics.median(contact_ms), '< 20 ms, < 1 s'))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+
+
+def robot_latencies(namespace, repeats=10):
+    """(preempting goal -> first feedback ms, contact -> status ms) for one robot of a running fleet."""
+    client = actionlib.SimpleActionClient(namespace + '/battery_simulator', battery_simAction)
+    other = actionlib.SimpleActionClient(namespace + '/battery_simulator', battery_simAction)
+    assert client.wait_for_server(rospy.Duration(30.0)) and other.wait_for_server(rospy.Duration(30.0))
+    feedback = []
+    for index in range(repeats):
+        charge = bool(index % 2)
+        first_feedback_ms(client, charge)
+        feedback.append(first_feedback_ms(other, not charge))   # preempts client's goal
+        other.cancel_goal()
+        other.wait_for_result(rospy.Duration(5.0))
+    contact = rospy.Publisher(namespace + '/charger_contact', Bool, queue_size=1, latch=True)
+    arrivals = Arrivals(namespace + '/battery_status')
+    delays = []
+    try:
+        wait_until(lambda: contact.get_num_connections() > 0 and arrivals.count() > 0, 30.0, 'the robot')
+        for index in range(6):
+            connected = index % 2 == 0
+            wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
+                      else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+            start, sent = arrivals.count(), time.monotonic()
+            contact.publish(Bool(data=connected))
+            wait_until(lambda: any(m.power_supply_status == wanted for _, m in arrivals.since(start)), 10.0,
+                       'the status change')
+            delays.append(1000.0 * (next(t for t, m in arrivals.since(start) if m.power_supply_status == wanted)
+                                    - sent))
+            time.sleep(0.3 + random.random() * 0.7)
+    finally:
+        contact.unregister()
+        arrivals.close()
+    return feedback, delays
 
 
 def run(sections):
@@ -291,7 +368,10 @@ def run(sections):
         wait_until(lambda: rosgraph.Master('/graph_benchmark').is_online(), 30.0, 'the master')
         rospy.init_node('graph_benchmark', disable_signals=True)
         for section in sections:
-            section(processes, rows)
+            if section is measure_fleet:
+                section(processes, rows, master)
+            else:
+                section(processes, rows)
     finally:
         processes.stop_all()   # the master last: it was started first
     return rows

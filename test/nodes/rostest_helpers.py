@@ -2,12 +2,22 @@
 import os
 import signal
 import subprocess
+import sys
 import threading
 import time
 
 import rospkg
 import rospy
 from sensor_msgs.msg import BatteryState
+
+
+def result_name(default):
+    """The name this test node runs under (rostest passes __name:=<test-name>), so that the same
+    test script run against two launches (X.test and X_fleet.test) writes two result files."""
+    for argument in sys.argv:
+        if argument.startswith('__name:='):
+            return argument.split(':=', 1)[1]
+    return default
 
 
 def node_command(script):

@@ -15,7 +15,7 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import SetState
-from rostest_helpers import Recorder, wait_for
+from rostest_helpers import Recorder, result_name, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 GOAL_TIMEOUT_S = 60.0
@@ -265,4 +265,4 @@ class TestActionInterface(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rostest.rosrun('battery_simulator', 'action_interface', TestActionInterface)
+    rostest.rosrun('battery_simulator', result_name('action_interface'), TestActionInterface)

@@ -1,25 +1,98 @@
 #!/usr/bin/python3
-"""rostest: fleet.launch n:=3 gives /robot0 ... /robot2, each its own battery, staggered."""
+"""rostest: fleet hosts (test/fleet.test): fleet.launch n:=6 hosts:=2 splits the robots
+between two processes, staggered; the list form of ~robots; ~states; a SIGKILLed host
+is respawned and every robot resumes within 1 %; a host of 100 robots starts under a
+soft limit of 1024 open files."""
+import os
+import resource
+import signal
+import subprocess
 import unittest
+import xmlrpc.client
 
+import rosgraph
 import rospy
 import rostest
+from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
-from rostest_helpers import Recorder, wait_for
+from battery_simulator.msg import BatteryFleetState
+from rostest_helpers import Recorder, node_command, stop_process, wait_for
+
+ROBOTS = ['robot%d' % k for k in range(6)]
+
+
+def node_pid(node):
+    uri = rosgraph.Master('/test_fleet').lookupNode(node)
+    return xmlrpc.client.ServerProxy(uri).getPid('/test_fleet')[2]
 
 
 class TestFleet(unittest.TestCase):
 
-    def test_three_robots_with_staggered_levels(self):
+    @classmethod
+    def setUpClass(cls):
         rospy.init_node('test_fleet')
-        robots = [Recorder('/robot%d/battery_status' % i, BatteryState) for i in range(3)]
-        wait_for(lambda: all(r.count() > 0 for r in robots), 60.0, 'battery_status of every robot')
-        levels = [r.latest().percentage for r in robots]
-        for level, expected in zip(levels, (1.00, 0.95, 0.90)):
-            self.assertAlmostEqual(level, expected, delta=0.005)
-        self.assertFalse(rospy.has_param('/robot3/MyRobot/BatteryStatus'), 'exactly n robots')
-        self.assertFalse(rospy.has_param('/MyRobot/BatteryStatus'), 'nothing in the root namespace')
+        cls.status = {name: Recorder('/%s/battery_status' % name) for name in ROBOTS + ['alpha', 'beta']}
+        cls.log = Recorder('/rosout', Log)
+        wait_for(lambda: all(r.count() > 0 for r in cls.status.values()), 60.0, 'battery_status of every robot')
+
+    def test_1_two_hosts_split_six_robots_with_staggered_levels(self):
+        first = [self.status[name].since(0)[0].percentage for name in ROBOTS]
+        for name, level, expected in zip(ROBOTS, first, (1.00, 0.95, 0.90, 0.85, 0.80, 0.75)):
+            self.assertAlmostEqual(level, expected, delta=0.01, msg=name)
+        self.assertFalse(rospy.has_param('/robot6/MyRobot/BatteryStatus'), 'exactly n robots')
+        self.assertEqual(node_pid('/battery_fleet'), node_pid('/battery_fleet'))
+        self.assertNotEqual(node_pid('/battery_fleet'), node_pid('/battery_fleet_1'), 'two processes')
+        for host, names in (('/battery_fleet', ROBOTS[:3]), ('/battery_fleet_1', ROBOTS[3:])):
+            states = rospy.wait_for_message(host + '/states', BatteryFleetState, timeout=10.0)
+            self.assertEqual(list(states.names), names)
+            self.assertEqual(len(states.states), 3)
+
+    def test_2_the_list_form_sets_each_robot_and_the_rest_comes_from_the_host(self):
+        alpha, beta = self.status['alpha'].latest(), self.status['beta'].latest()
+        self.assertEqual(alpha.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_CHARGING)
+        self.assertAlmostEqual(self.status['alpha'].since(0)[0].percentage, 0.42, delta=0.01)
+        self.assertEqual(len(alpha.cell_voltage), 4, 'its own config (Kobuki 4S2P)')
+        self.assertEqual(beta.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+        self.assertAlmostEqual(self.status['beta'].since(0)[0].percentage, 0.70, delta=0.01)
+        self.assertEqual(len(beta.cell_voltage), 3, "the host's config")
+
+    def test_3_a_killed_host_is_respawned_and_every_robot_resumes(self):
+        hosted = ROBOTS[3:]
+        wait_for(lambda: all(self.status[n].latest().percentage < self.status[n].since(0)[0].percentage - 0.02
+                             for n in hosted), 30.0, 'every robot of the host drained 2 %')
+        pid = node_pid('/battery_fleet_1')
+        os.kill(pid, signal.SIGKILL)
+        last = {name: self.status[name].latest().percentage for name in hosted}
+        seen = {name: self.status[name].count() for name in hosted}
+        logged = self.log.count()
+        wait_for(lambda: sum('resumed' in m.msg for m in self.log.since(logged) if m.name == '/battery_fleet_1') == 3,
+                 30.0, 'three robots resumed')
+        self.assertNotEqual(node_pid('/battery_fleet_1'), pid, 'a new process')
+        for name in hosted:
+            resumed = self.status[name].wait_new(seen[name], lambda m: True, 10.0, name + ' again')
+            self.assertLess(abs(resumed.percentage - last[name]), 0.01,
+                            '%s resumed at %.2f %% after %.2f %%' % (name, 100 * resumed.percentage, 100 * last[name]))
+
+    def test_4_a_host_of_100_starts_under_a_soft_limit_of_1024_open_files(self):
+        name = 'hundred'
+        rospy.set_param('/%s/robots' % name, 100)
+        rospy.set_param('/%s/prefix' % name, 'h')
+
+        def soft_limit_1024():
+            resource.setrlimit(resource.RLIMIT_NOFILE, (1024, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+        host = subprocess.Popen(node_command('battery_fleet.py') + ['__name:=' + name], preexec_fn=soft_limit_1024,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            states = Recorder('/%s/states' % name, BatteryFleetState)
+            wait_for(lambda: states.count() > 0 and len(states.latest().names) == 100 or host.poll() is not None,
+                     60.0, 'all 100 robots on ~states')
+            self.assertIsNone(host.poll(), 'the host died (exit %s)' % host.poll())
+            self.assertEqual(len(states.latest().names), 100)
+            raised = [m for m in self.log.since(0) if m.name == '/' + name and 'open files' in m.msg]
+            self.assertEqual(len(raised), 1, 'one line about the raised limit')
+        finally:
+            stop_process(host)
 
 
 if __name__ == '__main__':

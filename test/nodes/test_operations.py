@@ -17,7 +17,7 @@ from std_srvs.srv import Trigger
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import InjectFault, SetState
-from rostest_helpers import Recorder, wait_for
+from rostest_helpers import Recorder, result_name, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN = float('nan')
@@ -28,8 +28,10 @@ DEFAULTS = {'load_current_a': 1.5, 'time_scale': 10.0, 'load_power_w': 0.0, 'cha
 SIGMA_V, SIGMA_A = 0.02, 0.05   # the default preset's voltage_noise_v, current_noise_a
 
 
-def battery_status_of(array, name_end='Battery'):
-    found = [s for s in array.status if s.name.endswith(name_end) and 'battery_state_pub' in s.name]
+def battery_status_of(array):
+    """This battery's status: "<battery_state_pub's resolved name>: Battery" (a fleet host sends every robot's)."""
+    name = rospy.resolve_name('battery_state_pub').lstrip('/') + ': Battery'
+    found = [s for s in array.status if s.name == name]
     return found[0] if found else None
 
 
@@ -77,8 +79,12 @@ class TestOperations(unittest.TestCase):
         self.assertGreater(float(values['Time Remaining (min)']), 0.0)
         self.assertTrue(0.0 <= float(values['Percentage (%)']) <= 100.0)
         seen = self.aggregated.count()
-        self.aggregated.wait_new(seen, lambda a: any(s.name == '/Power System/Battery' for s in a.status), 10.0,
-                                 '/Power System/Battery on /diagnostics_agg')
+        # the shipped analyzers: /Power System/Battery in the root namespace, "robot1 battery_state_pub: Battery"
+        # (the aggregator turns the status name's slash into a space) under it in a namespace or a fleet
+        namespace = rospy.get_namespace().strip('/')
+        expected = '/Power System/' + ('%s battery_state_pub: Battery' % namespace if namespace else 'Battery')
+        self.aggregated.wait_new(seen, lambda a: any(s.name == expected for s in a.status), 10.0,
+                                 '%s on /diagnostics_agg' % expected)
         self.set_state(15.0, NAN, NAN)
         warn = self.battery_diagnostic(lambda s: s.level == DiagnosticStatus.WARN, 'WARN at 15 %')
         self.assertIn('Low', warn.message)
@@ -222,4 +228,4 @@ class TestOperations(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rostest.rosrun('battery_simulator', 'operations', TestOperations)
+    rostest.rosrun('battery_simulator', result_name('operations'), TestOperations)

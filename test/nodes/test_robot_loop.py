@@ -19,7 +19,7 @@ from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import SetLoad, SetState
-from rostest_helpers import Recorder, wait_for
+from rostest_helpers import Recorder, result_name, wait_for
 
 TIME_SCALE = 20.0
 MODE_PARAM = 'MyRobot/BatteryStatus'
@@ -226,4 +226,4 @@ class TestRobotLoop(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rostest.rosrun('battery_simulator', 'robot_loop', TestRobotLoop)
+    rostest.rosrun('battery_simulator', result_name('robot_loop'), TestRobotLoop)

@@ -56,6 +56,10 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
+from battery_simulator.battery.battery_state import to_sim_state
+from battery_simulator.battery.robot_log import RobotLog
+from battery_simulator.battery.saved_state import StateStore
+from battery_simulator.battery.workers import StatusTimer, UpdateLoop
 from battery_simulator.cfg import BatterySimConfig
 from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
 from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
@@ -63,10 +67,9 @@ from battery_simulator.core.time_base import TimeBase
 from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
                                    battery_simResult)
 from battery_simulator.ros import topics
-from battery_simulator.battery.battery_state import to_sim_state
-from battery_simulator.ros.startup import (StartupError, checked_param, ending_the_node_on_error, init_node,
-                                           is_number, signals_held, wait_for_rosout)
-from battery_simulator.battery.saved_state import StateStore
+from battery_simulator.ros.cached_param import CachedParam
+from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number, signals_held,
+                                           wait_for_rosout)
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
                                    SetStateResponse)
 
@@ -111,6 +114,7 @@ def read_settings():
             from None
     return dict(
         params=params,
+        params_path=config,
         time_scale=checked_param('~time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0'),
         update_rate=checked_param('~update_rate', 10.0, lambda v: is_number(v) and 0 < v <= 1000,
                                   'a number in (0, 1000] Hz'),
@@ -141,9 +145,15 @@ class BatterySimServer:
     holds ``self._lock``, so actionlib's own locks are always taken first.
     """
 
-    def __init__(self, params, time_scale, update_rate, initial_percentage, charging, state_file=''):
+    def __init__(self, namespace, node_name, params, time_scale, initial_percentage, charging, store, loop,
+                 status_timer, log=None):
+        """One battery whose names live under ``namespace`` ('/', '/robot3/'); ``node_name`` is where its
+        dynamic_reconfigure lives (its node, or '/robot3/BatterySimServer' in a fleet host); ``store``
+        keeps its saved state; ``loop`` (UpdateLoop) steps it; ``status_timer`` publishes its goal status."""
         self.params = params
-        self._period_s = 1.0 / update_rate
+        self._ns = namespace
+        self._node_name = node_name
+        self._log = log or RobotLog()
         self._initial_soc = initial_percentage / 100.0
         self._sim_time = bool(rospy.get_param('/use_sim_time', False))
         self._time_scale = time_scale      # as configured (the time base ignores it under sim time)
@@ -152,7 +162,8 @@ class BatterySimServer:
         else:
             self._clock, self._time_base = time.monotonic, TimeBase(time_scale)
         self._lock = threading.Condition()
-        self._wake = False                 # something changed: update and publish now
+        self._loop = loop
+        self._status_timer = status_timer
         self._updates = 0                  # model updates taken for publishing (worker)
         self._urgent_update = 0            # the update a service asked for: battery_status shows it at once
         self._published_update = 0         # the last update published on battery_simulator/state
@@ -160,6 +171,7 @@ class BatterySimServer:
         self._stopping = threading.Event()
         self._mode_generation = 0          # bumped whenever the mode is set other than by the parameter
         self._mode_source = 'parameter'    # who set the mode last (for abort texts)
+        self._mode_param = CachedParam(namespace + topics.MODE_PARAM)
         self._contact = False              # the charger contact as last reported
         self._motion = (None, 0.0, 0.0)    # (clock time, |v| m/s, |w| rad/s) of the last cmd_vel
         self._payloads = {}                # name -> W
@@ -168,23 +180,28 @@ class BatterySimServer:
         self._goal = None                  # ActiveGoal, worker thread only
         self._logged = (None, 0.0)         # (whole percent, wall time) of the last progress line
         self._invalid_logged = (None, 0.0)  # (repr of the bad mode value, wall time) last logged
-        self._store = StateStore(state_file)
+        self._store = store
+        self._state_listeners = []         # in-process battery_state_pub logic (a fleet host): called per update
+        self._sent_sub = None              # battery_state_pub's acknowledgements, when it is another process
 
         self.model = BatteryModel(params, state_of_charge=self._initial_soc,
                                   mode=Mode.CHARGE if charging else Mode.DISCHARGE)
         resumed_from = self._resume()
         if resumed_from is None:
-            rospy.set_param(topics.MODE_PARAM, 1 if charging else 0)
+            self._mode_param.set(1 if charging else 0)
         self._follow(self._read_mode_param())
         self.model.step(0.0)
         self._resumed_from = resumed_from
 
-        self._state_pub = rospy.Publisher(topics.STATE_TOPIC, BatterySimState, queue_size=1, latch=True)
-        self._server = actionlib.SimpleActionServer(topics.ACTION, battery_simAction, auto_start=False)
+        self._state_pub = rospy.Publisher(namespace + topics.STATE_TOPIC, BatterySimState, queue_size=1, latch=True)
+        self._server = actionlib.SimpleActionServer(namespace + topics.ACTION, battery_simAction, auto_start=False)
         self._server.register_goal_callback(self._wake_up)
         self._server.register_preempt_callback(self._wake_up)
-        # daemon: a node stopped during start-up must not hang on it; main() joins it otherwise
-        self._worker = threading.Thread(target=self._run, name='battery_model', daemon=True)
+        loop.add(self)
+
+    def add_state_listener(self, listener):
+        """Call ``listener(BatterySimState)`` after every update, in the worker thread (an in-process publisher)."""
+        self._state_listeners.append(listener)
 
     def _resume(self):
         """Resume a saved state (after a respawn, or from ~state_file); where from, or None."""
@@ -194,55 +211,52 @@ class BatterySimServer:
         try:
             self.model.restore_state(saved)
         except ValueError as error:
-            rospy.logwarn('not resuming from %s: %s; starting at %.1f %%', where, error, 100 * self._initial_soc)
+            self._log.warn('not resuming from %s: %s; starting at %.1f %%', where, error, 100 * self._initial_soc)
             return None
         return where
 
     def start(self):
-        rospy.on_shutdown(self.stop)   # client hooks run before rospy closes the topics
-        self._subscribers = [rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
-                             rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
-        self._sent_sub = rospy.Subscriber(topics.STATUS_SENT, UInt64, self._on_status_sent, queue_size=10)
+        ns = self._ns
+        self._subscribers = [rospy.Subscriber(ns + topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
+                             rospy.Subscriber(ns + topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
+        if not self._state_listeners:   # battery_state_pub is another process: it acknowledges on a topic
+            self._sent_sub = rospy.Subscriber(ns + topics.STATUS_SENT, UInt64,
+                                              lambda msg: self.on_status_sent(msg.data), queue_size=10)
         self._services = [
-            rospy.Service(topics.SET_LOAD, SetLoad, self._set_load),
-            rospy.Service(topics.SET_CHARGING, SetBool, self._set_charging),
-            rospy.Service(topics.SET_STATE, SetState, self._set_state),
-            rospy.Service(topics.RESET, Trigger, self._reset),
-            rospy.Service(topics.INJECT_FAULT, InjectFault, self._inject_fault),
+            rospy.Service(ns + topics.SET_LOAD, SetLoad, self._set_load),
+            rospy.Service(ns + topics.SET_CHARGING, SetBool, self._set_charging),
+            rospy.Service(ns + topics.SET_STATE, SetState, self._set_state),
+            rospy.Service(ns + topics.RESET, Trigger, self._reset),
+            rospy.Service(ns + topics.INJECT_FAULT, InjectFault, self._inject_fault),
         ]
         self._publish_state(self.model.snapshot())
-        self._worker.start()
         self._server.start()
-        _restart_status_timer_on_clock_jumps(self._server.action_server)
+        self._status_timer.add(self._server)
         self._reconfigure = self._start_reconfigure()
-        wait_for_rosout()
+
+    def report_ready(self, resumed_only=False):
+        """The start-up lines (after /rosout listens): resumed, and ready unless ``resumed_only``."""
         snapshot = self.model.snapshot()
         if self._resumed_from:
-            rospy.loginfo('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',
-                          self._resumed_from, snapshot.percentage, snapshot.cycle_count,
-                          100.0 * snapshot.state_of_health)
-        rospy.loginfo('battery_simulator ready: %s, %.1f %%, %s, %s', self.params.name, snapshot.percentage,
-                      snapshot.status.value, 'ROS time' if self._sim_time else 'time x%g' % self._time_base.time_scale)
+            self._log.info('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',
+                           self._resumed_from, snapshot.percentage, snapshot.cycle_count,
+                           100.0 * snapshot.state_of_health)
+        if not resumed_only:
+            self._log.info('battery_simulator ready: %s, %.1f %%, %s, %s', self.params.name, snapshot.percentage,
+                           snapshot.status.value,
+                           'ROS time' if self._sim_time else 'time x%g' % self._time_base.time_scale)
 
     def _start_reconfigure(self):
         # Seed the server with the values in force, so that it does not impose the .cfg defaults.
-        rospy.set_param('~time_scale', self._time_scale)
+        private = self._node_name + '/'
+        rospy.set_param(private + 'time_scale', self._time_scale)
         for name in LIVE_PARAMETERS:
-            rospy.set_param('~' + name, getattr(self.params, name))
-        return ReconfigureServer(BatterySimConfig, self._reconfigure_callback)
-
-    def stop(self):
-        """Stop the worker: it preempts the active goal and saves the state (idempotent)."""
-        self._stopping.set()
-        self._wake_up()
-        if self._worker.is_alive() and threading.current_thread() is not self._worker:
-            self._worker.join(timeout=2.0)
+            rospy.set_param(private + name, getattr(self.params, name))
+        return ReconfigureServer(BatterySimConfig, self._reconfigure_callback, namespace=private)
 
     def _wake_up(self):
-        """Update and publish now (self._lock is re-entrant: callers may hold it)."""
-        with self._lock:
-            self._wake = True
-            self._lock.notify_all()
+        """Update and publish now (callers may hold self._lock: the loop's lock is taken after it)."""
+        self._loop.wake(self)
 
     def _advance_to_now(self):
         """Step the model up to this moment (self._lock held) before a change, so that the change
@@ -261,43 +275,37 @@ class BatterySimServer:
             yield
             wanted = self._updates + 1
             self._urgent_update = wanted
-            acknowledged = self._sent_sub.get_num_connections() > 0
+            acknowledged = bool(self._state_listeners) or (
+                self._sent_sub is not None and self._sent_sub.get_num_connections() > 0)
             self._wake_up()
             self._lock.wait_for(lambda: self._stopping.is_set() or (
                 self._published_update >= wanted and (not acknowledged or self._sent_update >= wanted)),
                 SERVICE_PUBLISH_WAIT_S)
 
-    def _on_status_sent(self, msg):
+    def on_status_sent(self, update):
+        """battery_state_pub has sent publish_now ``update`` on battery_status (a waiting service may reply)."""
         with self._lock:
-            self._sent_update = max(self._sent_update, msg.data)
+            self._sent_update = max(self._sent_update, update)
             self._lock.notify_all()
 
     # -- the worker thread ----------------------------------------------------
 
-    def _run(self):
-        with ending_the_node_on_error('the battery model worker'):
-            self._run_updates()
+    def run_once(self):
+        """One turn of the worker (UpdateLoop): take goals, update; False once rospy shuts down."""
+        try:
+            self._take_goals()
+            self._update()
+        except rospy.ROSException as error:   # a topic closed under us: only at shutdown
+            if rospy.is_shutdown():
+                return False
+            self._log.error_throttle(10.0, 'battery update failed: %s', error)
+        return True
 
-    def _run_updates(self):
-        next_update = time.monotonic()
-        while not self._stopping.is_set():
-            with self._lock:
-                self._lock.wait_for(lambda: self._wake or self._stopping.is_set(),
-                                    max(0.0, next_update - time.monotonic()))
-                self._wake = False
-            if self._stopping.is_set():
-                break
-            try:
-                self._take_goals()
-                self._update()
-            except rospy.ROSException as error:   # a topic closed under us: only at shutdown
-                if rospy.is_shutdown():
-                    break
-                rospy.logerr_throttle(10.0, 'battery update failed: %s', error)
-            now = time.monotonic()
-            if now >= next_update:
-                next_update = max(next_update + self._period_s, now)
+    def finish(self):
+        """At shutdown (the worker): preempt the active goal and save the state."""
+        self._stopping.set()
         with self._lock:
+            self._lock.notify_all()
             state = self.model.export_state()
         try:
             self._preempt('server shutting down')
@@ -328,7 +336,7 @@ class BatterySimServer:
             self._updates += 1
             update, urgent = self._updates, self._updates == self._urgent_update
         if self._time_base.restarts != restarts:
-            rospy.logwarn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
+            self._log.warn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
         self._publish_state(snapshot, load_w, publish_now=urgent, update=update)
         with self._lock:
             self._published_update = update
@@ -345,9 +353,9 @@ class BatterySimServer:
 
     def _read_mode_param(self):
         try:
-            return rospy.get_param(topics.MODE_PARAM, None)
+            return self._mode_param.get()
         except (ConnectionError, OSError) as error:  # master gone: keep the mode
-            rospy.logwarn_throttle(10.0, 'cannot read %s: %s', topics.MODE_PARAM, error)
+            self._log.warn_throttle(10.0, 'cannot read %s: %s', self._mode_param.name, error)
             return _INVALID
 
     def _follow(self, raw_mode):
@@ -366,7 +374,7 @@ class BatterySimServer:
         with self._lock:
             self._advance_to_now()
             self._mode_generation += 1
-            rospy.set_param(topics.MODE_PARAM, 1 if mode is Mode.CHARGE else 0)
+            self._mode_param.set(1 if mode is Mode.CHARGE else 0)
             self._mode_source = source
             self.model.set_mode(mode)
             self._wake_up()
@@ -378,8 +386,8 @@ class BatterySimServer:
         if value == repr(raw_mode) and now - logged_at < INVALID_LOG_PERIOD_S:
             return
         self._invalid_logged = (repr(raw_mode), now)
-        rospy.logerr('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
-                     '(hold); keeping %s', rospy.resolve_name(topics.MODE_PARAM), raw_mode, self.model.mode.value)
+        self._log.error('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
+                     '(hold); keeping %s', self._mode_param.name, raw_mode, self.model.mode.value)
 
     def _publish_state(self, snapshot, load_w=0.0, publish_now=False, update=0):
         with self._lock:
@@ -392,7 +400,9 @@ class BatterySimServer:
             battery.current = noisy_current(battery.current, self._noise.gauss(0.0, self.params.current_noise_a),
                                             battery.power_supply_status)
             battery.cell_voltage = [battery.voltage / len(battery.cell_voltage)] * len(battery.cell_voltage)
-        self._state_pub.publish(msg)
+        self._state_pub.publish(msg)   # serialized only while someone subscribes (latched all the same)
+        for listener in self._state_listeners:
+            listener(msg)
 
     def _log_progress(self, snapshot):
         whole = int(snapshot.percentage)
@@ -400,7 +410,7 @@ class BatterySimServer:
         now = time.monotonic()
         if whole != logged_percent and now - logged_at >= 1.0:
             self._logged = (whole, now)
-            rospy.loginfo('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
+            self._log.info('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
                           whole, snapshot.voltage_v, snapshot.current_a)
 
     # -- goals (worker thread) ---------------------------------------------------
@@ -415,7 +425,7 @@ class BatterySimServer:
             self._goal = ActiveGoal(goal.charge_state)
             self._set_mode(self._goal.mode, 'goal')
             snapshot = self._snapshot_now()
-            rospy.loginfo('goal: %s from %.1f %%', self._goal.mode.value, snapshot.percentage)
+            self._log.info('goal: %s from %.1f %%', self._goal.mode.value, snapshot.percentage)
             if self._server.is_preempt_requested():   # cancelled before it was accepted
                 self._preempt('cancel')
             else:
@@ -435,21 +445,21 @@ class BatterySimServer:
             return
         self._server.publish_feedback(battery_simFeedback(battery_percentage=snapshot.percentage))
         if snapshot.status is goal.target and snapshot.cut_off in (None, CutOff.UNDER_VOLTAGE):
-            self._finish(self._server.set_succeeded, goal.done_text, rospy.loginfo)
+            self._finish(self._server.set_succeeded, goal.done_text, self._log.info)
         elif snapshot.mode is not goal.mode:
             self._finish(self._server.set_aborted, 'Aborted at %.1f %%: %s was changed to %s (%s) while %s' % (
-                snapshot.percentage, rospy.resolve_name(topics.MODE_PARAM), snapshot.mode.value,
-                self._mode_source, goal.mode.value), rospy.logwarn)
+                snapshot.percentage, self._mode_param.name, snapshot.mode.value,
+                self._mode_source, goal.mode.value), self._log.warn)
         elif snapshot.status is Status.EMPTY:
             self._finish(self._server.set_aborted, 'Aborted at %.1f %%: the pack protection cut the load off (%s)'
-                         % (snapshot.percentage, snapshot.cut_off.value), rospy.logwarn)
+                         % (snapshot.percentage, snapshot.cut_off.value), self._log.warn)
 
     def _preempt(self, reason):
         """Preempt the active goal, if any, saying why and at what level."""
         if self._goal is not None:
             snapshot = self._snapshot_now()
             self._finish(self._server.set_preempted, 'Preempted at %.1f %% (%s, %s)' % (
-                snapshot.percentage, reason, snapshot.status.value), rospy.loginfo)
+                snapshot.percentage, reason, snapshot.status.value), self._log.info)
 
     def _finish(self, set_state, text, log):
         self._goal = None
@@ -461,7 +471,7 @@ class BatterySimServer:
     def _on_cmd_vel(self, twist):
         speed, turn = abs(twist.linear.x), abs(twist.angular.z)
         if not (speed <= MAX_SPEED_MPS and turn <= MAX_TURN_RADPS):   # also NaN
-            rospy.logerr_throttle(10.0, 'ignoring a cmd_vel beyond what a robot can do (|linear.x| %r m/s, '
+            self._log.error_throttle(10.0, 'ignoring a cmd_vel beyond what a robot can do (|linear.x| %r m/s, '
                                   '|angular.z| %r rad/s; at most %g and %g)', speed, turn, MAX_SPEED_MPS,
                                   MAX_TURN_RADPS)
             return
@@ -481,7 +491,7 @@ class BatterySimServer:
         with self._lock:
             changed, self._contact = connected != self._contact, connected
         if changed:
-            rospy.loginfo_throttle(LOG_PERIOD_S, '%s: charger %s', source, 'connected' if connected else 'disconnected')
+            self._log.info_throttle(LOG_PERIOD_S, '%s: charger %s', source, 'connected' if connected else 'disconnected')
             self._set_mode(Mode.CHARGE if connected else Mode.DISCHARGE, source)
 
     def _set_load(self, request):
@@ -526,7 +536,7 @@ class BatterySimServer:
             cleared, self._faults = sorted(self._faults), set()   # the start-up state has no faults
             self.model.set_charger_fault(False)
         if cleared:
-            rospy.logwarn('reset: faults cleared: %s', ', '.join(cleared))
+            self._log.warn('reset: faults cleared: %s', ', '.join(cleared))
         return TriggerResponse(success=True, message='reset to %.1f %%, mode kept%s' % (
             100.0 * self._initial_soc, '; faults cleared: ' + ', '.join(cleared) if cleared else ''))
 
@@ -541,7 +551,7 @@ class BatterySimServer:
                 self._faults.discard(request.fault)
             if request.fault == 'charger_fault':
                 self.model.set_charger_fault(request.active)
-        rospy.logwarn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
+        self._log.warn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
         return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
                                                                       else 'cleared'))
 
@@ -553,7 +563,7 @@ class BatterySimServer:
         time_scale = config['time_scale']
         with self._service_change():   # the time so far at the old settings (and time_scale)
             if not (is_number(time_scale) and time_scale > 0):
-                rospy.logerr('dynamic_reconfigure: time_scale = %r is invalid: must be a number > 0; keeping %g',
+                self._log.error('dynamic_reconfigure: time_scale = %r is invalid: must be a number > 0; keeping %g',
                              time_scale, self._time_scale)
             else:
                 self._time_scale = time_scale
@@ -566,7 +576,7 @@ class BatterySimServer:
                 try:
                     params = replace(params, **{name: float(config[name])})
                 except ParameterError as error:
-                    rospy.logerr('dynamic_reconfigure: %s; keeping %g', error, getattr(params, name))
+                    self._log.error('dynamic_reconfigure: %s; keeping %g', error, getattr(params, name))
             self.params = self.model.params = params
         config['time_scale'] = self._time_scale
         for name in LIVE_PARAMETERS:
@@ -589,18 +599,18 @@ def noisy_current(current_a, noise_a, power_supply_status):
     return noisy
 
 
-def _restart_status_timer_on_clock_jumps(action_server):
-    """actionlib's status timer is a rospy.Timer without ``reset``: a /clock jump back
-    kills it, and the action's status stops for good. Run it again with reset."""
-    timer = getattr(action_server, 'status_timer', None)
-    if timer is not None:
-        timer.shutdown()
-        action_server.status_timer = rospy.Timer(timer._period, action_server.publish_status_async, reset=True)
-
-
 def main():
     with signals_held():
-        server = BatterySimServer(**init_node('BatterySimServer', read_settings))
+        settings = init_node('BatterySimServer', read_settings)
+        settings.pop('params_path')
+        loop = UpdateLoop(settings.pop('update_rate'))
+        store = StateStore(rospy.resolve_name('~saved_state'), settings.pop('state_file'))
+        server = BatterySimServer(rospy.get_namespace(), rospy.get_name(), store=store, loop=loop,
+                                  status_timer=StatusTimer(), **settings)
+        rospy.on_shutdown(loop.stop)   # client hooks run before rospy closes the topics
+        loop.start()     # first: dynamic_reconfigure's first callback waits for an update
         server.start()
+        wait_for_rosout()
+        server.report_ready()
     rospy.spin()
-    server.stop()
+    loop.stop()

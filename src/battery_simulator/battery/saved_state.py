@@ -1,18 +1,21 @@
 """Where the server keeps the battery's state across a crash or a restart.
 
-Two places: the private parameter ``~saved_state`` (the parameter server
-outlives a respawned node; sim.launch clears it with ``clear_params`` on a
-fresh launch) and, when ``~state_file`` is set, a JSON file (ageing carried
-across runs). Writes are throttled: often enough to resume within a fraction
-of a percent, rare enough to cost nothing.
+Two places: a private parameter (``~saved_state`` of battery_sim_server.py;
+the parameter server outlives a respawned node; sim.launch clears it with
+``clear_params`` on a fresh launch) and, when ``~state_file`` is set, a JSON
+file (ageing carried across runs). Writes are throttled: often enough to
+resume within a fraction of a percent, rare enough to cost nothing.
+
+A fleet host keeps every robot's state in one parameter (FleetStore), written
+at a bounded rate whatever the number of robots, so the master stays idle.
 """
 import json
 import os
+import threading
 import time
 
 import rospy
 
-SAVED_STATE_PARAM = '~saved_state'
 SAVE_EVERY_PERCENT = 0.1   # save when the level moved this much ...
 SAVE_EVERY_S = 2.0         # ... or this long (wall) has passed
 FILE_EVERY_S = 10.0        # the state file is written at most this often, and at shutdown
@@ -21,16 +24,17 @@ FILE_EVERY_S = 10.0        # the state file is written at most this often, and a
 class StateStore:
     """Saves ``model.export_state()`` to the parameter server and an optional file."""
 
-    def __init__(self, state_file=''):
+    def __init__(self, param_name, state_file=''):
+        self.param_name = param_name
         self.state_file = state_file
         self._saved = (None, 0.0)      # (percentage, wall time) of the last parameter write
         self._file_saved_at = 0.0
 
     def load(self):
         """(saved state, where from) or (None, None): the parameter first, then the file."""
-        saved = rospy.get_param(SAVED_STATE_PARAM, None)
+        saved = rospy.get_param(self.param_name, None)
         if saved is not None:
-            return saved, 'the parameter server (%s)' % rospy.resolve_name(SAVED_STATE_PARAM)
+            return saved, 'the parameter server (%s)' % self.param_name
         if self.state_file and os.path.exists(self.state_file):
             try:
                 with open(self.state_file, encoding='utf-8') as stream:
@@ -57,7 +61,7 @@ class StateStore:
 
     def _save_param(self, state, level, now):
         try:
-            rospy.set_param(SAVED_STATE_PARAM, state)
+            rospy.set_param(self.param_name, state)
             self._saved = (level, now)
         except (ConnectionError, OSError) as error:  # master gone: try again next update
             rospy.logwarn_throttle(10.0, 'cannot save the battery state: %s', error)
@@ -71,3 +75,68 @@ class StateStore:
             os.replace(temporary, self.state_file)   # never a half-written file
         except OSError as error:
             rospy.logerr_throttle(60.0, 'cannot write state file %s: %s', self.state_file, error)
+
+
+FLEET_SAVE_PERIOD_S = 1.0   # a fleet host writes its robots' states at most this often (one master call)
+
+
+class FleetStore:
+    """Every robot's saved state in one parameter (a dict by robot name), written at most every
+    FLEET_SAVE_PERIOD_S and only when a robot moved SAVE_EVERY_PERCENT (or SAVE_EVERY_S passed)."""
+
+    def __init__(self, param_name):
+        self.param_name = param_name
+        self._lock = threading.Lock()
+        saved = rospy.get_param(param_name, {})
+        self._states = dict(saved) if isinstance(saved, dict) else {}
+        self._changed = False
+        self._written_at = time.monotonic()
+
+    def robot(self, name):
+        """The store one robot's server uses (load, maybe_save, save_now)."""
+        return _RobotStore(self, name)
+
+    def write_if_due(self, force=False):
+        """Write the states if any changed and the period passed (a timer calls this)."""
+        with self._lock:
+            now = time.monotonic()
+            if not force and (not self._changed or now - self._written_at < FLEET_SAVE_PERIOD_S):
+                return
+            states, self._changed, self._written_at = dict(self._states), False, now
+        try:
+            rospy.set_param(self.param_name, states)
+        except (ConnectionError, OSError) as error:   # master gone: try again next time
+            with self._lock:
+                self._changed = True
+            rospy.logwarn_throttle(10.0, 'cannot save the fleet state: %s', error)
+
+    def _load(self, name):
+        return self._states.get(name)
+
+    def _keep(self, name, state):
+        with self._lock:
+            self._states[name] = state
+            self._changed = True
+
+
+class _RobotStore:
+    def __init__(self, fleet, name):
+        self._fleet, self._name = fleet, name
+        self._saved = (None, 0.0)
+
+    def load(self):
+        saved = self._fleet._load(self._name)
+        if saved is None:
+            return None, None
+        return saved, 'the parameter server (%s/%s)' % (self._fleet.param_name, self._name)
+
+    def maybe_save(self, state):
+        percentage, saved_at = self._saved
+        now = time.monotonic()
+        level = 100.0 * state['state_of_charge']
+        if percentage is None or abs(level - percentage) >= SAVE_EVERY_PERCENT or now - saved_at >= SAVE_EVERY_S:
+            self._fleet._keep(self._name, state)
+            self._saved = (level, now)
+
+    def save_now(self, state):
+        self._fleet._keep(self._name, state)

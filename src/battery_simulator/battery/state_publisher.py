@@ -32,18 +32,17 @@ import time
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
-from diagnostic_updater import Updater
+from diagnostic_updater import DiagnosticStatusWrapper
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 
+from battery_simulator.battery.robot_log import RobotLog
+from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros import topics
-from battery_simulator.ros.startup import (StartupError, checked_param, ending_the_node_on_error, init_node,
-                                           is_number, signals_held)
+from battery_simulator.ros.startup import StartupError, checked_param, init_node, is_number, signals_held
 
-URGENT_GAP_S = 0.02        # changes published at once, at most one such message per this (a burst: its last state)
-DIAGNOSTIC_PERIOD_S = 0.5   # diagnostics at least this often (wall time: a paused sim clock does not stop them)
 
 
 def _fraction(value):
@@ -68,12 +67,25 @@ def read_settings():
 
 
 class BatteryStatePublisher:
-    """Lock: ``self._lock`` guards the latest state, its arrival time and what was last published."""
+    """battery_state_pub's logic for one battery whose names live under ``namespace``.
 
-    def __init__(self, rate, frame_id, stale_timeout, low_percentage, critical_percentage, hysteresis):
-        self._rate_hz = rate
+    It holds no thread: ``publish_once()`` is called at ``rate`` by the process's
+    publish loop, changes go out through the shared ChangeLoop, diagnostics
+    through the shared DiagnosticsLoop. ``on_state`` takes the server's state,
+    from the server's topic (battery_state_pub.py) or straight from the server
+    (a fleet host); ``acknowledge(update)`` tells the server a service's change
+    is out, on its topic or straight. Lock: ``self._lock`` guards the latest
+    state, its arrival time and what was last published.
+    """
+
+    def __init__(self, namespace, node_name, rate, frame_id, stale_timeout, low_percentage, critical_percentage,
+                 hysteresis, changes, log=None):
+        self.rate = rate
         self._frame_id = frame_id
         self._stale_timeout_s = stale_timeout
+        self._diagnostic_name = node_name.lstrip('/') + ': Battery'
+        self._changes = changes
+        self._log = log or RobotLog()
         self._lock = threading.Lock()
         self._latest = None
         self._received_at = 0.0
@@ -83,93 +95,61 @@ class BatteryStatePublisher:
             'low': LevelAlarm(low_percentage, hysteresis),
             'critical': LevelAlarm(critical_percentage, hysteresis),
         }
-        self._pub = rospy.Publisher(topics.BATTERY_STATUS, BatteryState, queue_size=10)
+        self._pub = rospy.Publisher(namespace + topics.BATTERY_STATUS, BatteryState, queue_size=10)
         self._alarm_pubs = {
-            'low': rospy.Publisher(topics.BATTERY_LOW, Bool, queue_size=1, latch=True),
-            'critical': rospy.Publisher(topics.BATTERY_CRITICAL, Bool, queue_size=1, latch=True),
+            'low': rospy.Publisher(namespace + topics.BATTERY_LOW, Bool, queue_size=1, latch=True),
+            'critical': rospy.Publisher(namespace + topics.BATTERY_CRITICAL, Bool, queue_size=1, latch=True),
         }
         for publisher in self._alarm_pubs.values():
             publisher.publish(Bool(data=False))
-        self._updater = Updater()
-        self._updater.setHardwareID('none')
-        self._updater.add('Battery', self._diagnose)
-        self._urgent = threading.Condition()   # guards the three below; taken before self._lock
-        self._urgent_pending = False           # a change waits to go out at once
-        self._ack_pending = 0                  # the newest publish_now update to acknowledge once it is out
-        self._urgent_sent_at = -URGENT_GAP_S   # monotonic time of the last such message
-        self._sent_pub = rospy.Publisher(topics.STATUS_SENT, UInt64, queue_size=10)
-        self._sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
+        self.acknowledge = self._acknowledge_on_topic
+        self._sent_pub = None
+        self._namespace = namespace
 
-    def _on_state(self, msg):
+    def follow_topic(self):
+        """Take the server's state from its topic (a server in another process) and acknowledge on a topic."""
+        self._sent_pub = rospy.Publisher(self._namespace + topics.STATUS_SENT, UInt64, queue_size=10)
+        self._sub = rospy.Subscriber(self._namespace + topics.STATE_TOPIC, BatterySimState, self.on_state,
+                                     queue_size=10)
+
+    def _acknowledge_on_topic(self, update):
+        self._sent_pub.publish(UInt64(data=update))
+
+    def latest_battery(self):
+        """The latest BatteryState (None before the first), for a fleet's summary."""
+        with self._lock:
+            return None if self._latest is None or self._latest.sensor_dropout else self._latest.battery
+
+    def on_state(self, msg):
         with self._lock:
             self._latest, self._received_at = msg, time.monotonic()
             changed = msg.battery.power_supply_status != self._published_status
         for name, alarm in self._alarms.items():
             if alarm.update(msg.battery.percentage):
-                rospy.loginfo('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * msg.battery.percentage)
+                self._log.info('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * msg.battery.percentage)
                 self._alarm_pubs[name].publish(Bool(data=alarm.active))
         if msg.publish_now or (changed and self._published_status is not None):
-            with self._urgent:   # a service's change or a status change goes out at once, not at the next tick
-                self._urgent_pending = True
-                if msg.publish_now:
-                    self._ack_pending = max(self._ack_pending, msg.update)
-                self._urgent.notify()
-        if msg.battery.serial_number:
-            self._updater.setHardwareID(msg.battery.serial_number)
-
-    def spin(self):
-        threading.Thread(target=self._diagnostics_loop, name='diagnostics', daemon=True).start()
-        threading.Thread(target=self._urgent_loop, name='urgent', daemon=True).start()
-        rate = rospy.Rate(self._rate_hz, reset=True)   # reset: a /clock jump back restarts the rate
-        while not rospy.is_shutdown():
-            self.publish_once()
-            try:
-                rate.sleep()
-            except rospy.ROSInterruptException:
-                break
-
-    def _diagnostics_loop(self):
-        with ending_the_node_on_error('the diagnostics thread'):
-            while not rospy.is_shutdown():
-                self._updater.force_update()
-                time.sleep(DIAGNOSTIC_PERIOD_S)
-
-    def _urgent_loop(self):
-        """Publish changes at once, but a burst of them (a service storm, a flapping contact) as at most one
-        message per URGENT_GAP_S carrying its latest state; then acknowledge the services' updates."""
-        with ending_the_node_on_error('the change publisher thread'):
-            while not rospy.is_shutdown():
-                with self._urgent:
-                    if not self._urgent.wait_for(lambda: self._urgent_pending, DIAGNOSTIC_PERIOD_S):
-                        continue
-                    delay_s = self._urgent_sent_at + URGENT_GAP_S - time.monotonic()
-                if delay_s > 0.0:
-                    time.sleep(delay_s)   # wall time: the gap bounds a message rate
-                with self._urgent:
-                    ack, self._ack_pending, self._urgent_pending = self._ack_pending, 0, False
-                    self._urgent_sent_at = time.monotonic()
-                self.publish_once()
-                if ack:
-                    self._sent_pub.publish(UInt64(data=ack))   # the server's service may reply now
+            # a service's change or a status change goes out at once, not at the next tick
+            self._changes.request(self, msg.update if msg.publish_now else 0)
 
     def publish_once(self):
         """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
         with self._lock:
             latest, received_at = self._latest, self._received_at
             if latest is None:
-                rospy.loginfo_throttle(10.0, 'waiting for %s', rospy.resolve_name(topics.STATE_TOPIC))
+                self._log.info_throttle(10.0, 'waiting for %s', self._namespace + topics.STATE_TOPIC)
                 return
             if latest.sensor_dropout:
-                rospy.logwarn_throttle(10.0, 'sensor_dropout fault active: battery_status withheld')
+                self._log.warn_throttle(10.0, 'sensor_dropout fault active: battery_status withheld')
                 self._published_status = None
                 return
             age_s = time.monotonic() - received_at
             if age_s > self._stale_timeout_s:
-                rospy.logwarn_throttle(10.0, 'battery state is stale: no update from the battery_simulator '
-                                       'server for %.0f s; republishing the last known state', age_s)
+                self._log.warn_throttle(10.0, 'battery state is stale: no update from the battery_simulator '
+                                        'server for %.0f s; republishing the last known state', age_s)
                 self._stale = True
             elif self._stale:
-                rospy.loginfo('battery state updates resumed')
+                self._log.info('battery state updates resumed')
                 self._stale = False
             # The server's message is ours alone (a fresh one per update) and publish() serializes it
             # before returning, so it is restamped in place rather than copied on every tick.
@@ -179,14 +159,17 @@ class BatteryStatePublisher:
             self._published_status = msg.power_supply_status
             self._pub.publish(msg)
 
-    def _diagnose(self, status):
-        """The "Battery" diagnostic status (keys as rqt_robot_monitor and dashboards expect)."""
+    def diagnostic_status(self):
+        """The "<node>: Battery" diagnostic status (keys as rqt_robot_monitor and dashboards expect)."""
+        status = DiagnosticStatusWrapper(name=self._diagnostic_name)
         with self._lock:
             latest, stale = self._latest, time.monotonic() - self._received_at > self._stale_timeout_s
         if latest is None:
             status.summary(DiagnosticStatus.WARN, 'no data from the battery_simulator server yet')
+            status.hardware_id = 'none'
             return status
         battery = latest.battery
+        status.hardware_id = battery.serial_number or 'none'
         level, message = battery_level(latest, stale, self._alarms['low'].threshold,
                                        self._alarms['critical'].threshold)
         status.summary(level, message)
@@ -206,6 +189,18 @@ class BatteryStatePublisher:
                 ('Time Remaining (min)', '' if math.isnan(remaining) else '%.1f' % (remaining / 60.0))):
             status.add(key, value)
         return status
+
+
+def publish_at_rate(publishers, rate_hz):
+    """Publish every publisher's battery_status at ``rate_hz`` (ROS time) until shutdown (the main thread)."""
+    rate = rospy.Rate(rate_hz, reset=True)   # reset: a /clock jump back restarts the rate
+    while not rospy.is_shutdown():
+        for publisher in publishers:
+            publisher.publish_once()
+        try:
+            rate.sleep()
+        except rospy.ROSInterruptException:
+            break
 
 
 HEALTH_TEXT = {
@@ -237,5 +232,10 @@ def battery_level(state, stale, low, critical):
 
 def main():
     with signals_held():
-        publisher = BatteryStatePublisher(**init_node('battery_state_pub', read_settings))
-    publisher.spin()
+        settings = init_node('battery_state_pub', read_settings)
+        changes = ChangeLoop()
+        publisher = BatteryStatePublisher(rospy.get_namespace(), rospy.get_name(), changes=changes, **settings)
+        publisher.follow_topic()
+        changes.start()
+        DiagnosticsLoop([publisher]).start()
+    publish_at_rate([publisher], publisher.rate)

@@ -1,0 +1,172 @@
+"""The fleet host node (battery_fleet): many batteries in one process.
+
+Each robot ``<name>`` gets the interface sim.launch gives inside
+``<group ns="<name>">`` (the action, battery_status, the mode parameter, the
+services, cmd_vel, charger_contact, low/critical, diagnostics
+``<name>/battery_state_pub: Battery``, dynamic_reconfigure at
+``/<name>/BatterySimServer``, resume after a crash), built from the same
+BatterySimServer and BatteryStatePublisher classes as the two single-robot
+nodes. One worker steps every model, one loop publishes every battery_status,
+one timer publishes every action status; the server feeds its publisher in
+process (no topic between them), and the robots' saved states live in one
+parameter, ``~saved_states``, written at most once a second.
+
+:ROS Parameters:
+  - ``~robots`` (int or list): a count N, or a list of ``{name, config, initial_percentage, charging}``
+    (every key but name optional) (default 1)
+  - ``~prefix`` (str), ``~first`` (int): with a count, names ``<prefix><first + k>`` (default robot, 0)
+  - ``~config``, ``~time_scale``, ``~update_rate``, ``~charging``: as battery_sim_server.py, for every robot
+  - ``~initial_percentage`` (0..100): every robot's level; unset with a count: staggered 100, 95, ... 20
+  - ``~rate``, ``~frame_id``, ``~stale_timeout``, ``~low_percentage``, ``~critical_percentage``,
+    ``~hysteresis``: as battery_state_pub.py, for every robot
+  - ``~fleet_rate`` (float, Hz, 0 < r <= 100): rate of ``~states`` (default 1)
+  - ``~saved_states`` (dict): written by the node; a respawned host resumes every robot from it
+
+:Publishes:
+  - ``~states`` (battery_simulator/BatteryFleetState): every robot's BatteryState, while subscribed
+"""
+import resource
+import threading
+
+import rospy
+
+from battery_simulator.battery import action_server, state_publisher
+from battery_simulator.battery.action_server import BatterySimServer
+from battery_simulator.battery.robot_log import RobotLog
+from battery_simulator.battery.saved_state import FleetStore
+from battery_simulator.battery.state_publisher import BatteryStatePublisher, publish_at_rate
+from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
+from battery_simulator.core.fleet import FleetError, robot_specs
+from battery_simulator.core.parameters import ParameterError, load_yaml
+from battery_simulator.msg import BatteryFleetState
+from battery_simulator.ros.startup import (StartupError, checked_param, ending_the_node_on_error,
+                                           exit_on_startup_error, init_node, is_number, signals_held,
+                                           wait_for_rosout)
+
+#: file descriptors one robot holds (rospy: one per topic, service and connection; measured ~13)
+FILES_PER_ROBOT = 16
+FILES_FOR_THE_PROCESS = 64
+
+
+def read_settings():
+    """The host's settings and its robots, checked; raises StartupError (one line naming robot and key)."""
+    server = action_server.read_settings()
+    publisher = state_publisher.read_settings()
+    staggered = not rospy.has_param('~initial_percentage')
+    try:
+        robots = robot_specs(
+            rospy.get_param('~robots', 1),
+            prefix=checked_param('~prefix', 'robot', lambda v: isinstance(v, str), 'a string'),
+            first=checked_param('~first', 0, lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+                                'a whole number >= 0'),
+            config=server['params_path'], initial_percentage=None if staggered else server['initial_percentage'],
+            charging=bool(server['charging']))
+    except FleetError as error:
+        raise StartupError('%s: %s' % (rospy.get_name(), error)) from None
+    configs = {server['params_path']: server['params']}
+    for robot in robots:
+        if robot.config not in configs:
+            try:
+                configs[robot.config] = load_yaml(robot.config)
+            except ParameterError as error:
+                raise StartupError('robot %s: config = %r is invalid: %s' % (robot.name, robot.config, error)) \
+                    from None
+    return dict(robots=robots, configs=configs, server=server, publisher=publisher,
+                fleet_rate=checked_param('~fleet_rate', 1.0, lambda v: is_number(v) and 0 < v <= 100,
+                                         'a number in (0, 100] Hz'))
+
+
+def raise_open_file_limit(robots):
+    """Raise the soft limit of open files to the hard one (rospy holds one per topic); StartupError if too few."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    needed = FILES_FOR_THE_PROCESS + FILES_PER_ROBOT * robots
+    limit = needed if hard == resource.RLIM_INFINITY else hard
+    if limit < needed:
+        raise StartupError('%s: %d robots need about %d open files, but the hard limit is %d: %d robots fit '
+                           '(raise it with ulimit -Hn, or use more hosts: fleet.launch hosts:=...)' % (
+                               rospy.get_name(), robots, needed, hard,
+                               (hard - FILES_FOR_THE_PROCESS) // FILES_PER_ROBOT))
+    if soft != resource.RLIM_INFINITY and soft < limit:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (limit, hard))
+        rospy.loginfo('open files: soft limit raised from %d to %d for %d robots', soft, limit, robots)
+
+
+class FleetHost:
+    """The servers and publishers of every robot, and the few threads they share."""
+
+    def __init__(self, robots, configs, server, publisher, fleet_rate):
+        self._fleet_rate = fleet_rate
+        self.loop = UpdateLoop(server['update_rate'])
+        self.store = FleetStore(rospy.resolve_name('~saved_states'))
+        status_timer, self.changes = StatusTimer(), ChangeLoop()
+        self.names, self.servers, self.publishers = [], [], []
+        for robot in robots:
+            namespace = rospy.resolve_name(robot.name) + '/'
+            log = RobotLog(robot.name + ': ')
+            battery = BatterySimServer(
+                namespace, namespace + 'BatterySimServer', configs[robot.config], server['time_scale'],
+                robot.initial_percentage, robot.charging, self.store.robot(robot.name), self.loop, status_timer, log)
+            status = BatteryStatePublisher(namespace, namespace + 'battery_state_pub', changes=self.changes,
+                                           log=log, **publisher)
+            battery.add_state_listener(status.on_state)
+            status.acknowledge = battery.on_status_sent
+            self.names.append(robot.name)
+            self.servers.append(battery)
+            self.publishers.append(status)
+        self._states_pub = rospy.Publisher('~states', BatteryFleetState, queue_size=1)
+
+    def start(self):
+        rospy.on_shutdown(self.stop)
+        self.loop.start()       # first: each dynamic_reconfigure's first callback waits for an update
+        self.changes.start()
+        for server in self.servers:
+            server.start()
+        DiagnosticsLoop(self.publishers).start()
+        threading.Thread(target=self._publish_states, name='fleet_states', daemon=True).start()
+
+    def stop(self):
+        self.loop.stop()
+        self.store.write_if_due(force=True)
+
+    def _publish_states(self):
+        """``~states`` at ``~fleet_rate`` (while subscribed), and the saved states when due."""
+        with ending_the_node_on_error('the fleet state thread'):
+            rate = rospy.Rate(self._fleet_rate, reset=True)
+            while not rospy.is_shutdown():
+                self.store.write_if_due()
+                if self._states_pub.get_num_connections() > 0:
+                    msg = BatteryFleetState()
+                    for name, publisher in zip(self.names, self.publishers):
+                        battery = publisher.latest_battery()
+                        if battery is not None:
+                            msg.names.append(name)
+                            msg.states.append(battery)
+                    msg.header.stamp = rospy.Time.now()
+                    self._states_pub.publish(msg)
+                try:
+                    rate.sleep()
+                except rospy.ROSInterruptException:
+                    break
+
+
+def main():
+    with signals_held():
+        settings = init_node('battery_fleet', read_settings)
+        try:
+            raise_open_file_limit(len(settings['robots']))
+        except StartupError as error:
+            exit_on_startup_error(error)
+        server = settings['server']
+        for key in ('params', 'params_path', 'initial_percentage', 'charging', 'state_file'):
+            server.pop(key)
+        host = FleetHost(settings['robots'], settings['configs'], server, settings['publisher'],
+                         settings['fleet_rate'])
+        host.start()
+        wait_for_rosout()
+        for battery in host.servers:
+            battery.report_ready(resumed_only=True)
+        rospy.loginfo('battery_fleet ready: %d robots (%s ... %s), time x%g, update %g Hz, battery_status %g Hz',
+                      len(host.servers), host.names[0], host.names[-1], server['time_scale'], server['update_rate'],
+                      settings['publisher']['rate'])
+    publish_at_rate(host.publishers, settings['publisher']['rate'])
+    host.stop()

@@ -1,0 +1,89 @@
+"""The robots a fleet host runs: names, configs, levels (no rospy).
+
+``~robots`` is either a count N (names ``<prefix><first + k>``) or a list of
+``{name, config, initial_percentage, charging}`` with every key but ``name``
+optional. What a robot does not set comes from the host's defaults; with a
+count and no fleet-wide initial percentage the levels are staggered as
+fleet.launch always did: 100, 95, 90, ..., wrapping at 20.
+"""
+import math
+import re
+from dataclasses import dataclass
+
+#: a ROS graph name segment: a letter, then letters, digits and underscores
+_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
+ROBOT_KEYS = ('name', 'config', 'initial_percentage', 'charging')
+MAX_ROBOTS = 10000
+
+
+class FleetError(ValueError):
+    """A bad robot entry; the message names the robot and the key."""
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    name: str
+    config: str
+    initial_percentage: float
+    charging: bool
+
+
+def staggered_percentage(index):
+    """The level of the ``index``-th robot of a counted fleet: 100, 95, ..., 20, then 100 again."""
+    return 100.0 - (5 * index) % 85
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def robot_specs(robots, prefix='robot', first=0, config='', initial_percentage=None, charging=False):
+    """The RobotSpec of every robot ``~robots`` asks for, in order; FleetError for a bad entry."""
+    if isinstance(robots, int) and not isinstance(robots, bool):
+        if not 1 <= robots <= MAX_ROBOTS:
+            raise FleetError('~robots = %r is invalid: must be a count in [1, %d] or a list of robots'
+                             % (robots, MAX_ROBOTS))
+        if not _NAME.match('%s%d' % (prefix, first)):
+            raise FleetError('~prefix = %r is invalid: robot names must start with a letter and hold only '
+                             'letters, digits and _' % (prefix,))
+        return [RobotSpec('%s%d' % (prefix, first + k), config,
+                          staggered_percentage(first + k) if initial_percentage is None else initial_percentage,
+                          charging) for k in range(robots)]
+    if not isinstance(robots, list) or not robots:
+        raise FleetError('~robots = %r is invalid: must be a count in [1, %d] or a non-empty list of '
+                         '{name, config, initial_percentage, charging}' % (robots, MAX_ROBOTS))
+    specs, seen = [], set()
+    for index, entry in enumerate(robots):
+        specs.append(_robot_entry(index, entry, seen, config, initial_percentage, charging))
+    return specs
+
+
+def _robot_entry(index, entry, seen, config, initial_percentage, charging):
+    if not isinstance(entry, dict):
+        raise FleetError('~robots[%d] = %r is invalid: must be a mapping with at least a name' % (index, entry))
+    name = entry.get('name')
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise FleetError('~robots[%d] name = %r is invalid: must start with a letter and hold only letters, '
+                         'digits and _' % (index, name))
+    if name in seen:
+        raise FleetError('robot %s: name is invalid: another robot has it already' % name)
+    seen.add(name)
+    unknown = sorted(str(key) for key in entry if key not in ROBOT_KEYS)
+    if unknown:
+        raise FleetError('robot %s: key %s is unknown (known: %s)' % (name, unknown[0], ', '.join(ROBOT_KEYS)))
+    robot_config = entry.get('config', config)
+    if not isinstance(robot_config, str):
+        raise FleetError('robot %s: config = %r is invalid: must be a path to a YAML file' % (name, robot_config))
+    level = entry.get('initial_percentage', 100.0 if initial_percentage is None else initial_percentage)
+    if isinstance(level, str):
+        try:
+            level = float(level)
+        except ValueError:
+            pass
+    if not (_is_number(level) and 0 <= level <= 100):
+        raise FleetError('robot %s: initial_percentage = %r is invalid: must be a number in [0, 100]'
+                         % (name, level))
+    robot_charging = entry.get('charging', charging)
+    if robot_charging not in (True, False, 0, 1):
+        raise FleetError('robot %s: charging = %r is invalid: must be true or false' % (name, robot_charging))
+    return RobotSpec(name, robot_config, float(level), bool(robot_charging))
