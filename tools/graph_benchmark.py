@@ -280,13 +280,14 @@ def measure_fleet(processes, rows, master=None):
     """fleet.launch at N = 1, 10, 100 (one host) and 1000 (hosts:=4), with every battery_status subscribed."""
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))   # this process subscribes to every robot
-    for n, hosts, first_target, cpu_target, memory_target in (
-            (1, 1, '', '', ''), (10, 1, '', '', ''), (100, 1, '<= 10 s', '<= 8 %', '<= 100 MB'),
-            (1000, 4, '<= 30 s', '<= 40 %', '<= 500 MB')):
+    for n, hosts, update_rate, first_target, cpu_target, memory_target in (
+            (1, 1, None, '', '', ''), (10, 1, None, '', '', ''), (100, 1, None, '<= 10 s', '<= 8 %', '<= 100 MB'),
+            (1000, 4, None, '<= 30 s', '<= 40 %', '<= 500 MB'), (1000, 4, 10, '', '', '')):
         arrivals = [Arrivals('/robot%d/battery_status' % i) for i in range(n)]
         started = time.monotonic()
         fleet = processes.start(['prlimit', '--nofile=1024:%d' % hard, 'roslaunch', 'battery_simulator',
-                                 'fleet.launch', 'n:=%d' % n, 'hosts:=%d' % hosts])
+                                 'fleet.launch', 'n:=%d' % n, 'hosts:=%d' % hosts]
+                                + (['update_rate:=%g' % update_rate] if update_rate else []))
         try:
             wait_until(lambda: all(a.count() > 0 for a in arrivals), 120.0, 'every robot publishing')
             first_s = max(a.items[0][0] for a in arrivals) - started
@@ -299,7 +300,8 @@ def measure_fleet(processes, rows, master=None):
             for arrival, mark in zip(arrivals, marks):
                 times = [t for t, _ in arrival.since(mark)]
                 rates.append((len(times) - 1) / (times[-1] - times[0]))
-            feedback_ms, contact_ms = (robot_latencies('/robot%d' % (n // 2)) if n >= 100 else (None, None))
+            feedback_ms, contact_ms = (robot_latencies('/robot%d' % (n // 2)) if n >= 100 and not update_rate
+                                       else (None, None))
             memory = sum(rss_mb(pid) for pid in pids)
             row_threads = sum(threads(pid) for pid in pids)
             files = sum(open_files(pid) for pid in pids)
@@ -307,7 +309,7 @@ def measure_fleet(processes, rows, master=None):
             for arrival in arrivals:
                 arrival.close()
             processes.stop(fleet)
-        name = 'fleet.launch n:=%d hosts:=%d' % (n, hosts)
+        name = 'fleet.launch n:=%d hosts:=%d%s' % (n, hosts, ' update_rate:=%g' % update_rate if update_rate else '')
         rows.append((name + ': processes, threads, open files', '%d, %d, %d' % (hosts, row_threads, files),
                      '%.1f threads, %.1f files per robot' % (row_threads / n, files / n), ''))
         rows.append((name + ': RSS, CPU (every battery_status subscribed)', '%.0f MB, %.1f %% of a core'

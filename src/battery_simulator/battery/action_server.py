@@ -56,7 +56,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
-from battery_simulator.battery.battery_state import to_sim_state
+from battery_simulator.battery.battery_state import SimState
 from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.battery.workers import StatusTimer, UpdateLoop
@@ -193,7 +193,11 @@ class BatterySimServer:
         self.model.step(0.0)
         self._resumed_from = resumed_from
 
-        self._state_pub = rospy.Publisher(namespace + topics.STATE_TOPIC, BatterySimState, queue_size=1, latch=True)
+        self._latest_state = None
+        # a subscriber gets the latest state when it connects (as a latched topic, without building
+        # and serializing a message at every update while nobody listens)
+        self._state_pub = rospy.Publisher(namespace + topics.STATE_TOPIC, BatterySimState, queue_size=1,
+                                          subscriber_listener=_LatestStateOnConnect(self))
         self._server = actionlib.SimpleActionServer(namespace + topics.ACTION, battery_simAction, auto_start=False)
         self._server.register_goal_callback(self._wake_up)
         self._server.register_preempt_callback(self._wake_up)
@@ -247,12 +251,9 @@ class BatterySimServer:
                            'ROS time' if self._sim_time else 'time x%g' % self._time_base.time_scale)
 
     def _start_reconfigure(self):
-        # Seed the server with the values in force, so that it does not impose the .cfg defaults.
-        private = self._node_name + '/'
-        rospy.set_param(private + 'time_scale', self._time_scale)
-        for name in LIVE_PARAMETERS:
-            rospy.set_param(private + name, getattr(self.params, name))
-        return ReconfigureServer(BatterySimConfig, self._reconfigure_callback, namespace=private)
+        values = {name: getattr(self.params, name) for name in LIVE_PARAMETERS}
+        values['time_scale'] = self._time_scale
+        return _LiveSettings(values, self._reconfigure_callback, namespace=self._node_name + '/')
 
     def _wake_up(self):
         """Update and publish now (callers may hold self._lock: the loop's lock is taken after it)."""
@@ -390,19 +391,24 @@ class BatterySimServer:
                      '(hold); keeping %s', self._mode_param.name, raw_mode, self.model.mode.value)
 
     def _publish_state(self, snapshot, load_w=0.0, publish_now=False, update=0):
+        """Hand this update's state to battery_state_pub: on the state topic while someone subscribes,
+        and to the in-process listeners (its message is built only if one of them needs it)."""
         with self._lock:
             faults = set(self._faults)
-        msg = to_sim_state(snapshot, self.params, stamp=rospy.Time.now(), load_power_w=load_w, faults=faults)
-        msg.publish_now, msg.update = publish_now, update
-        if 'measurement_noise' in faults:
-            battery = msg.battery
-            battery.voltage = noisy_voltage(battery.voltage, self._noise.gauss(0.0, self.params.voltage_noise_v))
-            battery.current = noisy_current(battery.current, self._noise.gauss(0.0, self.params.current_noise_a),
-                                            battery.power_supply_status)
-            battery.cell_voltage = [battery.voltage / len(battery.cell_voltage)] * len(battery.cell_voltage)
-        self._state_pub.publish(msg)   # serialized only while someone subscribes (latched all the same)
+        state = SimState(snapshot, self.params, rospy.Time.now(), load_w, faults, publish_now, update,
+                         self._add_noise if 'measurement_noise' in faults else None)
+        self._latest_state = state
+        if self._state_pub.get_num_connections() > 0:
+            self._state_pub.publish(state.message())
         for listener in self._state_listeners:
-            listener(msg)
+            listener(state)
+
+    def _add_noise(self, battery):
+        """The measurement_noise fault: Gaussian noise on the reported voltage and current."""
+        battery.voltage = noisy_voltage(battery.voltage, self._noise.gauss(0.0, self.params.voltage_noise_v))
+        battery.current = noisy_current(battery.current, self._noise.gauss(0.0, self.params.current_noise_a),
+                                        battery.power_supply_status)
+        battery.cell_voltage = [battery.voltage / len(battery.cell_voltage)] * len(battery.cell_voltage)
 
     def _log_progress(self, snapshot):
         whole = int(snapshot.percentage)
@@ -410,8 +416,8 @@ class BatterySimServer:
         now = time.monotonic()
         if whole != logged_percent and now - logged_at >= 1.0:
             self._logged = (whole, now)
-            self._log.info('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
-                          whole, snapshot.voltage_v, snapshot.current_a)
+            self._log.progress('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
+                               whole, snapshot.voltage_v, snapshot.current_a)
 
     # -- goals (worker thread) ---------------------------------------------------
 
@@ -582,6 +588,29 @@ class BatterySimServer:
         for name in LIVE_PARAMETERS:
             config[name] = getattr(params, name)
         return config
+
+
+class _LiveSettings(ReconfigureServer):
+    """dynamic_reconfigure's server, starting from the values in force rather than from the parameter
+    server (which would impose the .cfg defaults, and cost 14 master calls a robot in a fleet host)."""
+
+    def __init__(self, values, callback, namespace):
+        self._values_in_force = values
+        super().__init__(BatterySimConfig, callback, namespace=namespace)
+
+    def _copy_from_parameter_server(self):
+        self.config.update(self._values_in_force)
+
+
+class _LatestStateOnConnect(rospy.SubscribeListener):
+    def __init__(self, server):
+        super().__init__()
+        self._server = server
+
+    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
+        state = self._server._latest_state
+        if state is not None:
+            peer_publish(state.message())
 
 
 def noisy_voltage(voltage_v, noise_v):

@@ -66,3 +66,49 @@ def to_sim_state(snapshot, params, stamp=None, load_power_w=0.0, faults=()):
         active_faults=sorted(faults),
         sensor_dropout='sensor_dropout' in faults,
     )
+
+
+class SimState:
+    """One model update's state, its BatterySimState built only when someone needs it.
+
+    A fleet host updates hundreds of batteries ten times a second but publishes
+    each once a second: building every message at every update would be most
+    of its work. The cheap fields the publisher reads at every update are
+    plain attributes; ``message()`` builds (once) the rest.
+    """
+
+    def __init__(self, snapshot, params, stamp, load_power_w=0.0, faults=(), publish_now=False, update=0,
+                 add_noise=None):
+        self.percentage = snapshot.percentage / 100.0            # as BatteryState.percentage
+        self.power_supply_status = _SUPPLY_STATUS[snapshot.status]
+        self.sensor_dropout = 'sensor_dropout' in faults
+        self.publish_now = publish_now
+        self.update = update
+        self._parts = (snapshot, params, stamp, load_power_w, faults, add_noise)
+        self._message = None
+
+    def message(self):
+        """The BatterySimState (built at the first call; noise, if any, drawn then)."""
+        if self._message is None:
+            snapshot, params, stamp, load_power_w, faults, add_noise = self._parts
+            msg = to_sim_state(snapshot, params, stamp=stamp, load_power_w=load_power_w, faults=faults)
+            msg.publish_now, msg.update = self.publish_now, self.update
+            if add_noise is not None:
+                add_noise(msg.battery)
+            self._message = msg
+        return self._message
+
+
+class ReceivedState:
+    """A BatterySimState received on the server's topic, seen as a SimState."""
+
+    def __init__(self, msg):
+        self.percentage = msg.battery.percentage
+        self.power_supply_status = msg.battery.power_supply_status
+        self.sensor_dropout = msg.sensor_dropout
+        self.publish_now = msg.publish_now
+        self.update = msg.update
+        self._message = msg
+
+    def message(self):
+        return self._message

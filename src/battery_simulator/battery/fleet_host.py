@@ -9,7 +9,8 @@ BatterySimServer and BatteryStatePublisher classes as the two single-robot
 nodes. One worker steps every model, one loop publishes every battery_status,
 one timer publishes every action status; the server feeds its publisher in
 process (no topic between them), and the robots' saved states live in one
-parameter, ``~saved_states``, written at most once a second.
+parameter, ``~saved_states`` (JSON text: the master stores it without parsing
+hundreds of entries), written at most once a second.
 
 :ROS Parameters:
   - ``~robots`` (int or list): a count N, or a list of ``{name, config, initial_percentage, charging}``
@@ -20,7 +21,7 @@ parameter, ``~saved_states``, written at most once a second.
   - ``~rate``, ``~frame_id``, ``~stale_timeout``, ``~low_percentage``, ``~critical_percentage``,
     ``~hysteresis``: as battery_state_pub.py, for every robot
   - ``~fleet_rate`` (float, Hz, 0 < r <= 100): rate of ``~states`` (default 1)
-  - ``~saved_states`` (dict): written by the node; a respawned host resumes every robot from it
+  - ``~saved_states`` (str, JSON): written by the node; a respawned host resumes every robot from it
 
 :Publishes:
   - ``~states`` (battery_simulator/BatteryFleetState): every robot's BatteryState, while subscribed
@@ -102,7 +103,7 @@ class FleetHost:
         self.names, self.servers, self.publishers = [], [], []
         for robot in robots:
             namespace = rospy.resolve_name(robot.name) + '/'
-            log = RobotLog(robot.name + ': ')
+            log = RobotLog(robot.name + ': ', progress=False)
             battery = BatterySimServer(
                 namespace, namespace + 'BatterySimServer', configs[robot.config], server['time_scale'],
                 robot.initial_percentage, robot.charging, self.store.robot(robot.name), self.loop, status_timer, log)

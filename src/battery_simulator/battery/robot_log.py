@@ -12,9 +12,15 @@ import rospy
 class RobotLog:
     """rospy's log functions for one battery: ``prefix`` (e.g. ``'robot3: '``) before every line."""
 
-    def __init__(self, prefix=''):
+    def __init__(self, prefix='', progress=True):
         self.prefix = prefix
+        self._progress = progress   # a fleet host logs no level-by-level progress (hundreds of robots would flood /rosout)
         self._last = {}   # (level, format) -> monotonic time last logged
+
+    def progress(self, text, *args):
+        """A progress line (the level as it moves): info for one battery, nothing in a fleet host."""
+        if self._progress:
+            rospy.loginfo(self.prefix + text, *args)
 
     def info(self, text, *args):
         rospy.loginfo(self.prefix + text, *args)

@@ -81,14 +81,17 @@ FLEET_SAVE_PERIOD_S = 1.0   # a fleet host writes its robots' states at most thi
 
 
 class FleetStore:
-    """Every robot's saved state in one parameter (a dict by robot name), written at most every
+    """Every robot's saved state in one parameter (JSON text of a dict by robot name), written at most every
     FLEET_SAVE_PERIOD_S and only when a robot moved SAVE_EVERY_PERCENT (or SAVE_EVERY_S passed)."""
 
     def __init__(self, param_name):
         self.param_name = param_name
         self._lock = threading.Lock()
-        saved = rospy.get_param(param_name, {})
-        self._states = dict(saved) if isinstance(saved, dict) else {}
+        try:
+            saved = json.loads(rospy.get_param(param_name, '{}'))
+        except (TypeError, ValueError):
+            saved = None
+        self._states = saved if isinstance(saved, dict) else {}
         self._changed = False
         self._written_at = time.monotonic()
 
@@ -104,7 +107,7 @@ class FleetStore:
                 return
             states, self._changed, self._written_at = dict(self._states), False, now
         try:
-            rospy.set_param(self.param_name, states)
+            rospy.set_param(self.param_name, json.dumps(states))   # one string: cheap for the master to store
         except (ConnectionError, OSError) as error:   # master gone: try again next time
             with self._lock:
                 self._changed = True

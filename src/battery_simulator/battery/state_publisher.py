@@ -36,6 +36,7 @@ from diagnostic_updater import DiagnosticStatusWrapper
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 
+from battery_simulator.battery.battery_state import ReceivedState
 from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop
 from battery_simulator.core.level_alarm import LevelAlarm
@@ -109,8 +110,8 @@ class BatteryStatePublisher:
     def follow_topic(self):
         """Take the server's state from its topic (a server in another process) and acknowledge on a topic."""
         self._sent_pub = rospy.Publisher(self._namespace + topics.STATUS_SENT, UInt64, queue_size=10)
-        self._sub = rospy.Subscriber(self._namespace + topics.STATE_TOPIC, BatterySimState, self.on_state,
-                                     queue_size=10)
+        self._sub = rospy.Subscriber(self._namespace + topics.STATE_TOPIC, BatterySimState,
+                                     lambda msg: self.on_state(ReceivedState(msg)), queue_size=10)
 
     def _acknowledge_on_topic(self, update):
         self._sent_pub.publish(UInt64(data=update))
@@ -118,19 +119,21 @@ class BatteryStatePublisher:
     def latest_battery(self):
         """The latest BatteryState (None before the first), for a fleet's summary."""
         with self._lock:
-            return None if self._latest is None or self._latest.sensor_dropout else self._latest.battery
+            latest = self._latest
+        return None if latest is None or latest.sensor_dropout else latest.message().battery
 
-    def on_state(self, msg):
+    def on_state(self, state):
+        """The server's state after an update (a SimState, or a ReceivedState from its topic)."""
         with self._lock:
-            self._latest, self._received_at = msg, time.monotonic()
-            changed = msg.battery.power_supply_status != self._published_status
+            self._latest, self._received_at = state, time.monotonic()
+            changed = state.power_supply_status != self._published_status
         for name, alarm in self._alarms.items():
-            if alarm.update(msg.battery.percentage):
-                self._log.info('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * msg.battery.percentage)
+            if alarm.update(state.percentage):
+                self._log.info('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * state.percentage)
                 self._alarm_pubs[name].publish(Bool(data=alarm.active))
-        if msg.publish_now or (changed and self._published_status is not None):
+        if state.publish_now or (changed and self._published_status is not None):
             # a service's change or a status change goes out at once, not at the next tick
-            self._changes.request(self, msg.update if msg.publish_now else 0)
+            self._changes.request(self, state.update if state.publish_now else 0)
 
     def publish_once(self):
         """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
@@ -153,7 +156,7 @@ class BatteryStatePublisher:
                 self._stale = False
             # The server's message is ours alone (a fresh one per update) and publish() serializes it
             # before returning, so it is restamped in place rather than copied on every tick.
-            msg = latest.battery
+            msg = latest.message().battery
             msg.header.stamp = rospy.Time.now()
             msg.header.frame_id = self._frame_id
             self._published_status = msg.power_supply_status
@@ -168,6 +171,7 @@ class BatteryStatePublisher:
             status.summary(DiagnosticStatus.WARN, 'no data from the battery_simulator server yet')
             status.hardware_id = 'none'
             return status
+        latest = latest.message()
         battery = latest.battery
         status.hardware_id = battery.serial_number or 'none'
         level, message = battery_level(latest, stale, self._alarms['low'].threshold,
