@@ -30,7 +30,7 @@ def config_file(name, content):
     return path
 
 
-SERVER, PUBLISHER = 'battery_sim_server.py', 'battery_state_pub.py'
+SERVER, PUBLISHER, FLEET = 'battery_sim_server.py', 'battery_state_pub.py', 'battery_fleet.py'
 BAD_VALUE_YAML = config_file('bad_value', b'preset: lg_hg2_3s1p\nload_current_a: -2\n')
 #: case -> (script, [param:=value ...]); each runs once, all at once
 CASES = {
@@ -49,6 +49,12 @@ CASES = {
     'stale_timeout': (PUBLISHER, ['_stale_timeout:=-1']),
     'low_percentage': (PUBLISHER, ['_low_percentage:=20']),
     'critical_above_low': (PUBLISHER, ['_low_percentage:=0.1', '_critical_percentage:=0.3']),
+    'fleet_duplicate': (FLEET, ['_robots:=[{name: a}, {name: b}, {name: a}]']),
+    'fleet_name': (FLEET, ['_robots:=[{name: "robot-1"}]']),
+    'fleet_level': (FLEET, ['_robots:=[{name: a}, {name: b, initial_percentage: 150}]']),
+    'fleet_config': (FLEET, ['_robots:=[{name: a, config: /nonexistent/b.yaml}]']),
+    'fleet_count': (FLEET, ['_robots:=0']),
+    'fleet_time_scale': (FLEET, ['_robots:=2', '_time_scale:=-3']),
 }
 
 
@@ -112,6 +118,14 @@ class TestBadStartup(unittest.TestCase):
         self.check_rejected('stale_timeout', 'stale_timeout', '-1', 'a number > 0 s')
         self.check_rejected('low_percentage', 'low_percentage', '20', 'a fraction in [0, 1]')
         self.check_rejected('critical_above_low', 'critical_percentage', '0.3', 'at most ~low_percentage')
+
+    def test_a_fleet_host_names_the_bad_robot_and_key(self):
+        self.check_rejected('fleet_duplicate', 'robot a', 'name', 'another robot has it already')
+        self.check_rejected('fleet_name', 'name', "'robot-1'", 'must start with a letter')
+        self.check_rejected('fleet_level', 'robot b', '150', 'initial_percentage')
+        self.check_rejected('fleet_config', 'robot a', '/nonexistent/b.yaml', 'cannot read')
+        self.check_rejected('fleet_count', 'robots', '0', 'a count in [1, 10000]')
+        self.check_rejected('fleet_time_scale', 'time_scale', '-3', 'a number > 0')
 
     def test_numbers_that_roslaunch_passes_as_text_are_accepted(self):
         name = 'text_numbers_%d' % next(RUN_NUMBERS)

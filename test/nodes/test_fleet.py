@@ -17,6 +17,7 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import BatteryFleetState
+from battery_simulator.srv import InjectFault, SetLoad
 from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(6)]
@@ -56,6 +57,29 @@ class TestFleet(unittest.TestCase):
         self.assertEqual(beta.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
         self.assertAlmostEqual(self.status['beta'].since(0)[0].percentage, 0.70, delta=0.01)
         self.assertEqual(len(beta.cell_voltage), 3, "the host's config")
+
+    def test_2b_one_robots_bad_mode_fault_or_trip_never_touches_another(self):
+        inject = rospy.ServiceProxy('/robot1/battery_simulator/inject_fault', InjectFault)
+        set_load = rospy.ServiceProxy('/robot2/battery_simulator/set_load', SetLoad)
+        rospy.set_param('/robot0/MyRobot/BatteryStatus', 'junk')
+        self.assertTrue(inject('overheat', True).success)
+        self.assertTrue(set_load('winch', 240.0).success)   # over the 3S1P pack's 20 A: the protection trips
+        try:
+            seen = self.status['robot1'].count()
+            self.status['robot1'].wait_new(seen, lambda m: m.power_supply_health ==
+                                           BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT, 5.0, 'robot1 overheating')
+            seen = {name: self.status[name].count() for name in ROBOTS}
+            wait_for(lambda: all(self.status[n].count() >= seen[n] + 3 for n in ROBOTS), 10.0, 'three more each')
+            for name in ('robot0', 'robot3', 'robot4', 'robot5'):
+                for msg in self.status[name].since(seen[name]):
+                    self.assertEqual(msg.power_supply_health, BatteryState.POWER_SUPPLY_HEALTH_GOOD, name)
+                    self.assertEqual(msg.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING, name)
+            self.assertTrue(any(m.name == '/battery_fleet' and 'robot0: ' in m.msg and 'junk' in m.msg
+                                for m in self.log.since(0)), "robot0's bad mode logged under its name")
+        finally:
+            rospy.set_param('/robot0/MyRobot/BatteryStatus', 0)
+            inject('overheat', False)
+            set_load('winch', 0.0)
 
     def test_3_a_killed_host_is_respawned_and_every_robot_resumes(self):
         hosted = ROBOTS[3:]

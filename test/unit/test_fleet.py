@@ -1,0 +1,55 @@
+"""A fleet host's robots (core/fleet.py): names, configs, levels, and one line per bad entry."""
+import pytest
+
+from battery_simulator.core.fleet import FleetError, RobotSpec, robot_specs, staggered_percentage
+
+
+def test_a_count_names_the_robots_from_first_and_staggers_their_levels():
+    specs = robot_specs(3, prefix='robot', first=4, config='a.yaml')
+    assert specs == [RobotSpec('robot4', 'a.yaml', 80.0, False), RobotSpec('robot5', 'a.yaml', 75.0, False),
+                     RobotSpec('robot6', 'a.yaml', 70.0, False)]
+
+
+def test_the_staggered_levels_wrap_at_20_percent_as_fleet_launch_did():
+    assert [staggered_percentage(k) for k in (0, 1, 16, 17, 18)] == [100.0, 95.0, 20.0, 100.0, 95.0]
+
+
+def test_a_fleet_wide_level_and_mode_apply_to_every_counted_robot():
+    assert {(s.initial_percentage, s.charging) for s in robot_specs(5, initial_percentage=35.0, charging=True)} \
+        == {(35.0, True)}
+
+
+def test_the_list_form_takes_each_robots_own_keys_and_the_hosts_defaults_for_the_rest():
+    specs = robot_specs([{'name': 'scout', 'initial_percentage': 35}, {'name': 'hauler', 'config': 'h.yaml',
+                                                                       'charging': True}],
+                        config='default.yaml', initial_percentage=None)
+    assert specs == [RobotSpec('scout', 'default.yaml', 35.0, False), RobotSpec('hauler', 'h.yaml', 100.0, True)]
+
+
+@pytest.mark.parametrize('robots, message', [
+    (0, '~robots = 0 is invalid: must be a count in [1, 10000] or a list of robots'),
+    ([], '~robots = [] is invalid'),
+    ('five', "~robots = 'five' is invalid"),
+    ([{'name': 'a'}, {'name': 'a'}], 'robot a: name is invalid: another robot has it already'),
+    ([{'name': '1st'}], "~robots[0] name = '1st' is invalid: must start with a letter"),
+    ([{'name': 'a/b'}], "~robots[0] name = 'a/b' is invalid"),
+    ([{'config': 'x.yaml'}], '~robots[0] name = None is invalid'),
+    (['robot0'], "~robots[0] = 'robot0' is invalid: must be a mapping with at least a name"),
+    ([{'name': 'a', 'initial_percentage': 120}], 'robot a: initial_percentage = 120 is invalid: must be a number '
+                                                 'in [0, 100]'),
+    ([{'name': 'a', 'initial_percentage': float('nan')}], 'robot a: initial_percentage = nan is invalid'),
+    ([{'name': 'a', 'charging': 'maybe'}], "robot a: charging = 'maybe' is invalid: must be true or false"),
+    ([{'name': 'a', 'config': 3}], 'robot a: config = 3 is invalid: must be a path to a YAML file'),
+    ([{'name': 'a', 'level': 3}], 'robot a: key level is unknown (known: name, config, initial_percentage, '
+                                  'charging)'),
+])
+def test_a_bad_entry_is_one_line_naming_the_robot_and_the_key(robots, message):
+    with pytest.raises(FleetError) as error:
+        robot_specs(robots)
+    assert str(error.value).startswith(message), str(error.value)
+    assert '\n' not in str(error.value)
+
+
+def test_a_prefix_that_makes_no_name_is_refused():
+    with pytest.raises(FleetError, match="~prefix = '9' is invalid"):
+        robot_specs(2, prefix='9')
