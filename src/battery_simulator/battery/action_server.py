@@ -174,6 +174,8 @@ class BatterySimServer:
         self._mode_param = CachedParam(namespace + topics.MODE_PARAM)
         self._contact = False              # the charger contact as last reported
         self._motion = (None, 0.0, 0.0)    # (clock time, |v| m/s, |w| rad/s) of the last cmd_vel
+        self._motion_since = None          # clock time the motion energy is accounted up to
+        self._motion_energy_j = 0.0        # motion energy since the model's last step, J
         self._payloads = {}                # name -> W
         self._faults = set()
         self._noise = random.Random()
@@ -262,7 +264,31 @@ class BatterySimServer:
     def _advance_to_now(self):
         """Step the model up to this moment (self._lock held) before a change, so that the change
         does not act on the time before it (one update period: 100 s of battery at time x1000, 10 Hz)."""
-        self.model.step(self._time_base.elapsed(self._clock()))
+        self._step_to(self._clock())
+
+    def _step_to(self, now):
+        """Step the model to ``now`` (self._lock held) with the motion load it had meanwhile: the energy of
+        every cmd_vel over the time it held, so an update period of any length (24 s of ROS time at
+        speed 240) drains what the robot's motion took. Returns that average motion power, W."""
+        self._account_motion(now)
+        dt_s = self._time_base.elapsed(now)
+        motion_w = self._motion_energy_j / dt_s if dt_s > 0.0 else self._motion_power_w(now)
+        self._motion_energy_j = 0.0
+        self.model.set_extra_load('motion', power_w=motion_w)
+        self.model.step(dt_s)
+        return motion_w
+
+    def _account_motion(self, now):
+        """Add the energy of the command held since the last accounting (self._lock held): a cmd_vel
+        counts from its arrival until the next one or until it times out, on the model's clock."""
+        stamp, speed, turn = self._motion
+        since, self._motion_since = self._motion_since, now
+        if stamp is None or since is None or now <= since:
+            return   # nothing commanded yet, or the clock jumped back
+        held_s = min(now, stamp + self.params.cmd_vel_timeout_s) - max(since, stamp)   # on the clock
+        if held_s > 0.0:   # in simulated seconds, as the model steps
+            self._motion_energy_j += held_s * self._time_base.time_scale * (
+                self.params.drive_power_w_per_mps * speed + self.params.turn_power_w_per_radps * turn)
 
     @contextmanager
     def _service_change(self):
@@ -322,15 +348,12 @@ class BatterySimServer:
         with self._lock:   # the clock is read under the lock: a service may step the model to its own now
             now = self._clock()
             restarts = self._time_base.restarts
-            dt_s = self._time_base.elapsed(now)
             if generation == self._mode_generation:  # else the mode was set meanwhile, and stands
                 self._follow(raw_mode)
-            motion_w = self._motion_power_w(now)
-            self.model.set_extra_load('motion', power_w=motion_w)
             if 'overheat' in self._faults:
                 self.model.temperature_c = max(self.model.temperature_c,
                                                self.params.overheat_temperature_c + OVERHEAT_MARGIN_K)
-            self.model.step(dt_s)
+            motion_w = self._step_to(now)
             snapshot = self.model.snapshot()
             state = self.model.export_state()
             load_w = motion_w + sum(self._payloads.values())
@@ -347,6 +370,7 @@ class BatterySimServer:
         self._check_goal(snapshot)
 
     def _motion_power_w(self, now):
+        """The motion power of the command in force at ``now``, W."""
         stamp, speed, turn = self._motion
         if stamp is None or not 0.0 <= now - stamp <= self.params.cmd_vel_timeout_s:
             return 0.0
@@ -482,7 +506,9 @@ class BatterySimServer:
                                   MAX_TURN_RADPS)
             return
         with self._lock:
-            self._motion = (self._clock(), speed, turn)
+            now = self._clock()
+            self._account_motion(now)   # the previous command's energy up to now
+            self._motion = (now, speed, turn)
 
     def _on_contact(self, msg):
         self._change_contact(bool(msg.data), 'charger contact')
