@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""rostest: demo.launch runs PATROL -> GO_TO_DOCK -> CHARGING -> UNDOCK -> PATROL
-with the battery never empty (test/demo.test: time_scale 240, speed 0.6 m/s)."""
+"""rostest: demo.launch runs PATROL -> GO_TO_DOCK -> CHARGING -> UNDOCK -> PATROL on
+sim_clock (test/demo.test: speed 60, low level 50 %) with the battery never near empty
+and docked within 3 points of its low level."""
 import unittest
 
 import rospy
@@ -12,11 +13,12 @@ from battery_simulator.msg import BatterySimState
 from rostest_helpers import Recorder, wait_for
 
 CYCLE = ['PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK', 'PATROL']
+LOW = 0.50
 
 
 class TestDemo(unittest.TestCase):
 
-    def test_one_whole_cycle_without_running_empty(self):
+    def test_one_whole_cycle_docking_with_a_margin(self):
         rospy.init_node('test_demo')
         phases = Recorder('patrol_and_dock/phase', String)
         state = Recorder('battery_simulator/state', BatterySimState)
@@ -28,6 +30,9 @@ class TestDemo(unittest.TestCase):
         self.assertNotIn('Empty', states, 'the battery ran empty')
         self.assertIn('Charging', states)
         self.assertIn('Full', states)
+        lowest = min(m.battery.percentage for m in state.since(0))
+        self.assertGreater(lowest, LOW - 0.03, 'docked at %.1f %%, more than 3 points under the low level'
+                           % (100 * lowest))
         self.assertGreater(len({round(m.pose.pose.position.x, 1) for m in odom.since(0)}), 5, 'the robot moved')
 
 

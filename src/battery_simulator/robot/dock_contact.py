@@ -65,13 +65,14 @@ class DockContact:
             self._pub.publish(Bool(data=contact))
 
     def spin(self):
+        rate = rospy.Rate(1.0 / REPEAT_PERIOD_S, reset=True)   # ROS time, as the robot moves; reset: clock jumps
         self._pub.publish(Bool(data=False))
         while not rospy.is_shutdown():
             with self._lock:
                 contact = self._contact
             self._pub.publish(Bool(data=contact))
             try:
-                rospy.rostime.wallsleep(REPEAT_PERIOD_S)
+                rate.sleep()
             except rospy.ROSInterruptException:
                 break
 

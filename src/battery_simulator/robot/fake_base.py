@@ -2,7 +2,9 @@
 
 It integrates the latest ``cmd_vel`` (held for ``~cmd_vel_timeout`` s, then
 zero) into a pose, and publishes it as ``odom`` and as the tf odom ->
-base_footprint, at ``~rate`` Hz.
+base_footprint, at ``~rate`` Hz. Everything runs on ROS time: under
+``/use_sim_time`` with a coarse clock (0.24 s a tick at sim_clock speed 240) it
+integrates over the ROS time that actually passed, exactly for a held Twist.
 
 :ROS Parameters:
   - ``~rate`` (float, Hz, 0 < r <= 1000): integration and publication rate (default 20)
@@ -17,7 +19,6 @@ base_footprint, at ``~rate`` Hz.
 """
 import math
 import threading
-import time
 
 import rospy
 import tf2_ros
@@ -51,6 +52,16 @@ def integrate(x, y, yaw, linear, angular, dt_s):
             math.atan2(math.sin(new_yaw), math.cos(new_yaw)))
 
 
+def advance(pose, command, last_s, now_s, timeout_s):
+    """(pose, moving) after the ROS time from ``last_s`` to ``now_s``: ``command`` = (linear, angular,
+    received_s) drives from ``last_s`` until it times out (exact: one arc), then the base stands."""
+    linear, angular, received_s = command
+    moving_s = min(now_s, received_s + timeout_s) - last_s
+    if moving_s <= 0.0:
+        return pose, False
+    return integrate(*pose, linear, angular, moving_s), now_s - received_s <= timeout_s
+
+
 def yaw_quaternion(yaw):
     return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
 
@@ -62,7 +73,7 @@ class FakeBase:
         self._timeout_s = cmd_vel_timeout
         self._frames = (odom_frame, base_frame)
         self._lock = threading.Lock()   # guards _command
-        self._command = (0.0, 0.0, -math.inf)   # (linear, angular, wall time received)
+        self._command = (0.0, 0.0, -math.inf)   # (linear, angular, ROS time received)
         self._odom_pub = rospy.Publisher(topics.ODOM, Odometry, queue_size=10)
         self._tf = tf2_ros.TransformBroadcaster()
         self._sub = rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1)
@@ -73,20 +84,22 @@ class FakeBase:
             rospy.logerr_throttle(10.0, 'ignoring a non-finite cmd_vel (%r, %r)', linear, angular)
             return
         with self._lock:
-            self._command = (linear, angular, time.monotonic())
+            self._command = (linear, angular, rospy.get_time())
 
     def spin(self):
-        rate = rospy.Rate(self._rate_hz, reset=True)
-        last = time.monotonic()
+        rate = rospy.Rate(self._rate_hz, reset=True)   # ROS time; reset: a /clock jump back restarts it
+        last = rospy.get_time()
         while not rospy.is_shutdown():
-            now = time.monotonic()
+            now = rospy.get_time()
             with self._lock:
-                linear, angular, received = self._command
-            if now - received > self._timeout_s:
-                linear = angular = 0.0
-            self._pose = integrate(*self._pose, linear, angular, now - last)
+                command = self._command
+            if now < last or last == 0.0:   # a clock jump back, or no /clock yet: restart from here
+                last = now
+            # a command holds for the timeout, or two of the steps ROS time moves in (a coarse clock)
+            timeout_s = max(self._timeout_s, 2.0 * (now - last))
+            self._pose, moving = advance(self._pose, command, last, now, timeout_s)
             last = now
-            self._publish(linear, angular)
+            self._publish(*(command[:2] if moving else (0.0, 0.0)))
             try:
                 rate.sleep()
             except rospy.ROSInterruptException:

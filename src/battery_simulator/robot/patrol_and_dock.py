@@ -22,6 +22,7 @@ the battery level and published on ``patrol_and_dock/phase``.
 """
 import math
 import threading
+import time
 
 import actionlib
 import rospy
@@ -37,7 +38,9 @@ from battery_simulator.ros.startup import checked_param, init_node, is_number
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 CONTROL_RATE_HZ = 20.0
-ARRIVED_M = 0.08          # a waypoint counts as reached within this distance
+STARTUP_WAIT_S = 30.0     # wall seconds to wait for the battery's action server
+ARRIVED_M = 0.08          # a waypoint counts as reached within this distance (or half a step's drive)
+DOCKED_M = 0.15           # stop this close to the dock: well inside battery_dock_contact's radius (0.3 m)
 MAX_TURN_RADPS = 1.5
 DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
 
@@ -57,13 +60,20 @@ def read_settings():
     )
 
 
-def drive_to(x, y, yaw, goal_x, goal_y, speed):
-    """(linear, angular) to drive a unicycle at (x, y, yaw) to the goal: turn first, then go, slowing near it."""
+def drive_to(x, y, yaw, goal_x, goal_y, speed, step_s=1.0 / CONTROL_RATE_HZ):
+    """(linear, angular) to drive a unicycle at (x, y, yaw) to the goal: turn first, then go, slowing near it.
+
+    ``step_s`` is the ROS time a command holds before the next (0.24 s under sim_clock at speed 240): no
+    command drives or turns more than half the way left within one step, so it never overshoots, even
+    acting on a pose one step old (the base and this node take turns on each tick).
+    """
     distance = math.hypot(goal_x - x, goal_y - y)
     heading_error = math.atan2(goal_y - y, goal_x - x) - yaw
     heading_error = math.atan2(math.sin(heading_error), math.cos(heading_error))
-    angular = max(-MAX_TURN_RADPS, min(MAX_TURN_RADPS, 2.5 * heading_error))
-    linear = 0.0 if abs(heading_error) > 0.5 else min(speed, 1.2 * distance) * math.cos(heading_error)
+    turn_limit = min(MAX_TURN_RADPS, 0.5 * abs(heading_error) / step_s)
+    angular = max(-turn_limit, min(turn_limit, 2.5 * heading_error))
+    linear = 0.0 if abs(heading_error) > 0.5 else \
+        min(speed, 1.2 * distance, 0.5 * distance / step_s) * math.cos(heading_error)
     return linear, angular
 
 
@@ -81,6 +91,7 @@ class PatrolAndDock:
         self._phase = None
         self._next_waypoint = 0
         self._undock_from = None
+        self._step_s = 1.0 / CONTROL_RATE_HZ   # the ROS time between control steps, as last seen
         self._client = actionlib.SimpleActionClient(topics.ACTION, battery_simAction)
         self._cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=1)
         self._phase_pub = rospy.Publisher('patrol_and_dock/phase', String, queue_size=1, latch=True)
@@ -90,6 +101,15 @@ class PatrolAndDock:
             rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=1),
             rospy.Subscriber(topics.BATTERY_STATUS, BatteryState, self._on_battery, queue_size=1),
         ]
+
+    def _wait_for_server(self, timeout_s):
+        """Wait for the action server in wall time: 30 s of ROS time pass in 60 ms at sim_clock speed 480."""
+        deadline = time.monotonic() + timeout_s
+        while not rospy.is_shutdown() and time.monotonic() < deadline:
+            if self._client.wait_for_server(rospy.Duration(0.001)):   # one look (actionlib's timeout is ROS time)
+                return True
+            time.sleep(0.05)
+        return False
 
     def _on_odom(self, odom):
         pose = odom.pose.pose
@@ -117,16 +137,20 @@ class PatrolAndDock:
         self._phase_pub.publish(String(data=phase))
 
     def spin(self):
-        if not self._client.wait_for_server(rospy.Duration(30.0)):
-            rospy.logfatal('no action server %s after 30 s', rospy.resolve_name(topics.ACTION))
+        if not self._wait_for_server(STARTUP_WAIT_S):
+            rospy.logfatal('no action server %s after %g s', rospy.resolve_name(topics.ACTION), STARTUP_WAIT_S)
             return
         try:
             rospy.wait_for_message(topics.BATTERY_STATUS, BatteryState, timeout=30.0)
         except rospy.ROSException:
             rospy.logwarn('no %s after 30 s: patrolling without the level', rospy.resolve_name(topics.BATTERY_STATUS))
         self._enter(PATROL)
-        rate = rospy.Rate(CONTROL_RATE_HZ, reset=True)
+        rate = rospy.Rate(CONTROL_RATE_HZ, reset=True)   # ROS time; reset: a /clock jump back restarts it
+        last = rospy.get_time()
         while not rospy.is_shutdown():
+            now = rospy.get_time()
+            self._step_s = max(1.0 / CONTROL_RATE_HZ, now - last) if now > last else 1.0 / CONTROL_RATE_HZ
+            last = now
             with self._lock:
                 pose, low, contact = self._pose, self._low, self._contact
             if pose is not None:
@@ -144,17 +168,17 @@ class PatrolAndDock:
                 self._enter(GO_TO_DOCK)
                 return Twist()
             goal = self._waypoints[self._next_waypoint]
-            if math.hypot(goal[0] - x, goal[1] - y) < ARRIVED_M:
+            if math.hypot(goal[0] - x, goal[1] - y) < max(ARRIVED_M, 0.5 * self._speed * self._step_s):
                 self._next_waypoint = (self._next_waypoint + 1) % len(self._waypoints)
-            return self._twist(*drive_to(x, y, yaw, goal[0], goal[1], self._speed))
+            return self._twist(*drive_to(x, y, yaw, goal[0], goal[1], self._speed, self._step_s))
         if self._phase == GO_TO_DOCK:
             if contact:
                 self._client.send_goal(battery_simGoal(charge_state=True))
                 self._enter(CHARGING)
                 return Twist()
-            if math.hypot(self._dock[0] - x, self._dock[1] - y) < ARRIVED_M:
+            if math.hypot(self._dock[0] - x, self._dock[1] - y) < DOCKED_M:
                 return Twist()   # on the dock: stand still until the contact closes
-            return self._twist(*drive_to(x, y, yaw, self._dock[0], self._dock[1], self._speed))
+            return self._twist(*drive_to(x, y, yaw, self._dock[0], self._dock[1], self._speed, self._step_s))
         if self._phase == CHARGING:
             state = self._client.get_state()
             if state == GoalStatus.SUCCEEDED:
@@ -170,7 +194,8 @@ class PatrolAndDock:
             self._next_waypoint = 0
             self._enter(PATROL)
             return Twist()
-        return self._twist(-0.5 * self._speed, 0.0)
+        left_m = self._undock_distance - math.hypot(x - self._undock_from[0], y - self._undock_from[1])
+        return self._twist(-min(0.5 * self._speed, 0.5 * left_m / self._step_s), 0.0)
 
     @staticmethod
     def _twist(linear, angular):

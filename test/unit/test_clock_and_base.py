@@ -1,0 +1,41 @@
+"""The demo robot on a coarse ROS clock (no master): sim_clock's tick arithmetic, fake_base's
+integration over the ROS time that passed, patrol_and_dock's step-limited commands."""
+import math
+
+import pytest
+
+sim_clock = pytest.importorskip('battery_simulator.robot.sim_clock', reason='needs the devel space')
+fake_base = pytest.importorskip('battery_simulator.robot.fake_base')
+patrol = pytest.importorskip('battery_simulator.robot.patrol_and_dock')
+
+
+def test_ros_time_is_counted_in_ticks_so_it_never_drifts():
+    assert sim_clock.tick_time(0.0, 240.0, 1000.0, 1) == pytest.approx(0.24)
+    assert sim_clock.tick_time(100.0, 60.0, 250.0, 250 * 3600) == pytest.approx(100.0 + 60.0 * 3600.0, abs=1e-6)
+
+
+def test_a_held_twist_integrates_the_same_in_coarse_steps_as_in_one():
+    command = (0.3, 0.4, 0.0)   # received at t = 0, held (timeout far away)
+    pose = (1.0, 0.0, 0.0)
+    for step in range(10):
+        pose, moving = fake_base.advance(pose, command, 0.24 * step, 0.24 * (step + 1), 100.0)
+        assert moving
+    once, _ = fake_base.advance((1.0, 0.0, 0.0), command, 0.0, 2.4, 100.0)
+    assert pose == pytest.approx(once, abs=1e-12)
+    assert once == pytest.approx(fake_base.integrate(1.0, 0.0, 0.0, 0.3, 0.4, 2.4))
+
+
+def test_a_command_stops_at_its_timeout_within_a_step():
+    pose, moving = fake_base.advance((0.0, 0.0, 0.0), (0.5, 0.0, 1.0), 1.0, 2.0, 0.5)
+    assert pose == pytest.approx((0.25, 0.0, 0.0)) and not moving   # drove 0.5 s of the 1 s step
+    pose, moving = fake_base.advance((0.0, 0.0, 0.0), (0.5, 0.0, 1.0), 3.0, 4.0, 0.5)
+    assert pose == (0.0, 0.0, 0.0) and not moving                    # long timed out
+
+
+@pytest.mark.parametrize('step_s', [0.05, 0.24, 0.96, 5.0])
+def test_no_command_drives_or_turns_past_its_goal_within_a_step(step_s):
+    for goal in ((0.05, 0.0), (0.3, 0.01), (2.0, 0.0)):
+        linear, angular = patrol.drive_to(0.0, 0.0, 0.0, goal[0], goal[1], 0.6, step_s)
+        assert 0.0 <= linear * step_s <= 0.5 * math.hypot(*goal) + 1e-12
+        heading = math.atan2(goal[1], goal[0])
+        assert abs(angular * step_s) <= 0.5 * abs(heading) + 1e-12
