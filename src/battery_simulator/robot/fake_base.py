@@ -95,8 +95,8 @@ class FakeBase:
                 command = self._command
             if now < last or last == 0.0:   # a clock jump back, or no /clock yet: restart from here
                 last = now
-            # a command holds for the timeout, or two of the steps ROS time moves in (a coarse clock)
-            timeout_s = max(self._timeout_s, 2.0 * (now - last))
+            # a command holds for the timeout, or for the step ROS time moved in (a coarse clock)
+            timeout_s = max(self._timeout_s, now - last)
             self._pose, moving = advance(self._pose, command, last, now, timeout_s)
             last = now
             self._publish(*(command[:2] if moving else (0.0, 0.0)))
