@@ -209,29 +209,37 @@ def measure_goals(processes, rows, repeats=40):
                      '< 20 ms median'))
 
 
+def contact_delays(namespace, repeats=6):
+    """Wall ms from a charger_contact change to the status it asks for on battery_status, ``repeats`` times."""
+    contact = rospy.Publisher(namespace + '/charger_contact', Bool, queue_size=1, latch=True)
+    arrivals = Arrivals(namespace + '/battery_status')
+    delays = []
+    try:
+        wait_until(lambda: contact.get_num_connections() > 0 and arrivals.count() > 0, 30.0, 'the robot')
+        for index in range(repeats):
+            connected = index % 2 == 0
+            wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
+                      else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+            start, sent = arrivals.count(), time.monotonic()
+            contact.publish(Bool(data=connected))
+            wait_until(lambda: any(m.power_supply_status == wanted for _, m in arrivals.since(start)), 10.0,
+                       'the status change')
+            arrived = next(t for t, m in arrivals.since(start) if m.power_supply_status == wanted)
+            delays.append(1000.0 * (arrived - sent))
+            time.sleep(0.3 + random.random() * 0.7)   # land at different points of the publisher's period
+    finally:
+        contact.unregister()
+        arrivals.close()
+    return delays
+
+
 def measure_contact(processes, rows, repeats=6):
     for rate_hz in (1.0, 0.2):
         ns = 'contact%d' % (rate_hz * 10)
         sim = launch(processes, 'sim.launch', ns, rate=rate_hz, initial_percentage=50)
-        contact = rospy.Publisher('/%s/charger_contact' % ns, Bool, queue_size=1, latch=True)
-        arrivals = Arrivals('/%s/battery_status' % ns)
-        delays = []
         try:
-            wait_until(lambda: arrivals.count() > 0, 30.0, 'battery_status')
-            for index in range(repeats):
-                connected = index % 2 == 0
-                wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
-                          else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
-                start, sent = arrivals.count(), time.monotonic()
-                contact.publish(Bool(data=connected))
-                wait_until(lambda: any(m.power_supply_status == wanted for _, m in arrivals.since(start)), 10.0,
-                           'the status change')
-                arrived = next(t for t, m in arrivals.since(start) if m.power_supply_status == wanted)
-                delays.append(1000.0 * (arrived - sent))
-                time.sleep(0.3 + random.random() * 0.7)   # land at different points of the publisher's period
+            delays = contact_delays('/' + ns, repeats)
         finally:
-            contact.unregister()
-            arrivals.close()
             processes.stop(sim)
         rows.append(('contact -> status on battery_status at %g Hz' % rate_hz,
                      '%.0f ms median' % statistics.median(delays), 'max %.0f ms' % max(delays), '< 1 s'))
@@ -337,26 +345,7 @@ def robot_latencies(namespace, repeats=10):
         feedback.append(first_feedback_ms(other, not charge))   # preempts client's goal
         other.cancel_goal()
         other.wait_for_result(rospy.Duration(5.0))
-    contact = rospy.Publisher(namespace + '/charger_contact', Bool, queue_size=1, latch=True)
-    arrivals = Arrivals(namespace + '/battery_status')
-    delays = []
-    try:
-        wait_until(lambda: contact.get_num_connections() > 0 and arrivals.count() > 0, 30.0, 'the robot')
-        for index in range(6):
-            connected = index % 2 == 0
-            wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
-                      else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
-            start, sent = arrivals.count(), time.monotonic()
-            contact.publish(Bool(data=connected))
-            wait_until(lambda: any(m.power_supply_status == wanted for _, m in arrivals.since(start)), 10.0,
-                       'the status change')
-            delays.append(1000.0 * (next(t for t, m in arrivals.since(start) if m.power_supply_status == wanted)
-                                    - sent))
-            time.sleep(0.3 + random.random() * 0.7)
-    finally:
-        contact.unregister()
-        arrivals.close()
-    return feedback, delays
+    return feedback, contact_delays(namespace)
 
 
 def run(sections):

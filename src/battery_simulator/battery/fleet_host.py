@@ -10,7 +10,7 @@ nodes. One worker steps every model, one loop publishes every battery_status,
 one timer publishes every action status; the server feeds its publisher in
 process (no topic between them), and the robots' saved states live in one
 parameter, ``~saved_states`` (JSON text: the master stores it without parsing
-hundreds of entries), written at most once a second.
+hundreds of entries), written at most twice a second.
 
 :ROS Parameters:
   - ``~robots`` (int or list): a count N, or a list of ``{name, config, initial_percentage, charging}``
@@ -97,8 +97,8 @@ class FleetHost:
 
     def __init__(self, robots, configs, server, publisher, fleet_rate):
         self._fleet_rate = fleet_rate
-        self.loop = UpdateLoop(server['update_rate'])
         self.store = FleetStore(rospy.resolve_name('~saved_states'))
+        self.loop = UpdateLoop(server['update_rate'], after_round=self.store.write_if_due)
         status_timer, self.changes = StatusTimer(), ChangeLoop()
         self.names, self.servers, self.publishers = [], [], []
         for robot in robots:
@@ -130,11 +130,10 @@ class FleetHost:
         self.store.write_if_due(force=True)
 
     def _publish_states(self):
-        """``~states`` at ``~fleet_rate`` (while subscribed), and the saved states when due."""
+        """``~states`` at ``~fleet_rate`` (while subscribed)."""
         with ending_the_node_on_error('the fleet state thread'):
             rate = rospy.Rate(self._fleet_rate, reset=True)
             while not rospy.is_shutdown():
-                self.store.write_if_due()
                 if self._states_pub.get_num_connections() > 0:
                     msg = BatteryFleetState()
                     for name, publisher in zip(self.names, self.publishers):

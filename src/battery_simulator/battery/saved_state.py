@@ -77,7 +77,7 @@ class StateStore:
             rospy.logerr_throttle(60.0, 'cannot write state file %s: %s', self.state_file, error)
 
 
-FLEET_SAVE_PERIOD_S = 1.0   # a fleet host writes its robots' states at most this often (one master call)
+FLEET_SAVE_PERIOD_S = 0.5   # a fleet host writes its robots' states at most this often (one master call)
 
 
 class FleetStore:

@@ -31,8 +31,10 @@ class UpdateLoop:
     is taken last and briefly); the loop never holds self._wake while it steps.
     """
 
-    def __init__(self, update_rate):
+    def __init__(self, update_rate, after_round=None):
+        """``after_round()`` runs after each round of updates (a fleet host writes its saved states)."""
         self._period_s = 1.0 / update_rate
+        self._after_round = after_round
         self._servers = []
         self._wake = threading.Condition()
         self._woken = {}                  # servers to update at once (an ordered set)
@@ -80,6 +82,8 @@ class UpdateLoop:
                     return   # rospy is shutting down
             if due:
                 next_update = max(next_update + self._period_s, time.monotonic())
+                if self._after_round is not None:
+                    self._after_round()
 
 
 class StatusTimer:
