@@ -21,6 +21,7 @@ from battery_simulator.srv import InjectFault, SetLoad
 from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(6)]
+RATE_HZ = 5.0   # fleet.launch rate in test/fleet.test
 
 
 def node_pid(node):
@@ -48,6 +49,14 @@ class TestFleet(unittest.TestCase):
             states = rospy.wait_for_message(host + '/states', BatteryFleetState, timeout=10.0)
             self.assertEqual(list(states.names), names)
             self.assertEqual(len(states.states), 3)
+
+    def test_1b_every_robot_publishes_at_the_rate(self):
+        marks = {name: self.status[name].count() for name in ROBOTS}
+        wait_for(lambda: all(self.status[n].count() >= marks[n] + 21 for n in ROBOTS), 10.0, '20 periods each')
+        for name in ROBOTS:
+            first, last = marks[name], self.status[name].count() - 1
+            measured_hz = (last - first) / (self.status[name].arrival(last) - self.status[name].arrival(first))
+            self.assertAlmostEqual(measured_hz, RATE_HZ, delta=0.1 * RATE_HZ, msg=name)
 
     def test_2_the_list_form_sets_each_robot_and_the_rest_comes_from_the_host(self):
         alpha, beta = self.status['alpha'].latest(), self.status['beta'].latest()
