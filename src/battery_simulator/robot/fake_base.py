@@ -17,6 +17,7 @@ integrates over the ROS time that actually passed, exactly for a held Twist.
 :Publishes:
   - ``odom`` (nav_msgs/Odometry), tf ``odom`` -> ``base_footprint``
 """
+import collections
 import math
 import threading
 
@@ -73,6 +74,7 @@ class FakeBase:
         self._timeout_s = cmd_vel_timeout
         self._frames = (odom_frame, base_frame)
         self._lock = threading.Lock()   # guards _command
+        self._steps = collections.deque(maxlen=20)   # the last steps of ROS time seen (s): the clock's tick
         self._command = (0.0, 0.0, -math.inf)   # (linear, angular, ROS time received)
         self._odom_pub = rospy.Publisher(topics.ODOM, Odometry, queue_size=10)
         self._tf = tf2_ros.TransformBroadcaster()
@@ -95,15 +97,27 @@ class FakeBase:
                 command = self._command
             if now < last or last == 0.0:   # a clock jump back, or no /clock yet: restart from here
                 last = now
-            # a command holds for the timeout, or for the step ROS time moved in (a coarse clock)
-            timeout_s = max(self._timeout_s, now - last)
+            elif now == last:   # ROS time has not moved (rospy.Rate may wake twice on a coarse tick)
+                self._sleep(rate)
+                continue
+            if now > last:
+                self._steps.append(now - last)
+            # a command holds for its timeout, or one and a half ticks of a coarse clock (the shortest
+            # recent step), never for a stall's whole length
+            timeout_s = max(self._timeout_s, 1.5 * min(self._steps, default=0.0))
             self._pose, moving = advance(self._pose, command, last, now, timeout_s)
             last = now
             self._publish(*(command[:2] if moving else (0.0, 0.0)))
-            try:
-                rate.sleep()
-            except rospy.ROSInterruptException:
+            if not self._sleep(rate):
                 break
+
+    @staticmethod
+    def _sleep(rate):
+        try:
+            rate.sleep()
+            return True
+        except rospy.ROSInterruptException:
+            return False
 
     def _publish(self, linear, angular):
         x, y, yaw = self._pose

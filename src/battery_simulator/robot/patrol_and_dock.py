@@ -149,12 +149,13 @@ class PatrolAndDock:
         last = rospy.get_time()
         while not rospy.is_shutdown():
             now = rospy.get_time()
-            self._step_s = max(1.0 / CONTROL_RATE_HZ, now - last) if now > last else 1.0 / CONTROL_RATE_HZ
-            last = now
-            with self._lock:
-                pose, low, contact = self._pose, self._low, self._contact
-            if pose is not None:
-                self._cmd_pub.publish(self._control(pose, low, contact))
+            if now > last or now < last - 1.0:   # ROS time moved (a coarse clock: rospy.Rate may wake twice a tick)
+                self._step_s = max(1.0 / CONTROL_RATE_HZ, now - last) if now > last else 1.0 / CONTROL_RATE_HZ
+                last = now
+                with self._lock:
+                    pose, low, contact = self._pose, self._low, self._contact
+                if pose is not None:
+                    self._cmd_pub.publish(self._control(pose, low, contact))
             try:
                 rate.sleep()
             except rospy.ROSInterruptException:
