@@ -30,7 +30,7 @@ def free_port():
 
 def demo_phases(speed, tick_hz):
     """[(phase, level %)] of one demo cycle at ``speed``, from patrol_and_dock's log lines."""
-    config = os.path.join(rospkg.RosPack().get_path('battery_simulator'), 'test', 'config', 'fast_charger.yaml')
+    config = os.path.join(rospkg.RosPack().get_path('battery_simulator'), 'test', 'config', 'demo_test.yaml')
     port = free_port()
     demo = subprocess.Popen(
         ['roslaunch', '-p', str(port), 'battery_simulator', 'demo.launch', 'speed:=%g' % speed,

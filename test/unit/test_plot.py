@@ -52,3 +52,9 @@ def test_bad_input_gets_one_line(tmp_path, content, expected):
     assert result.returncode == 1 and expected in result.stderr, result.stderr
     assert 'Traceback' not in result.stderr and len(result.stderr.strip().splitlines()) == 1
     assert run_plot(tmp_path / 'absent.csv').returncode == 1
+
+
+def test_marks_at_the_same_moment_become_one_label():
+    marks = [(53.0, 'FULL'), (53.2, 'UNDOCK'), (0.0, 'DISCHARGING'), (0.1, 'low'), (30.0, 'CHARGING')]
+    assert plot.merged_marks(marks, 100.0) == [(0.0, 'DISCHARGING, low'), (30.0, 'CHARGING'), (53.0, 'FULL, UNDOCK')]
+    assert plot.merged_marks(marks, 1.0) == sorted(marks)

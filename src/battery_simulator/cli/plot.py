@@ -111,6 +111,17 @@ def read_rosbag(path, topic=None):
                temperature=[m.temperature for m in messages], marks=sorted(marks))
 
 
+def merged_marks(marks, span, fraction=0.02):
+    """Marks closer together than ``fraction`` of ``span`` as one label ("FULL, UNDOCK"), so none print over another."""
+    merged = []
+    for t, text in sorted(marks):
+        if merged and t - merged[-1][0] < fraction * span:
+            merged[-1] = (merged[-1][0], merged[-1][1] + ', ' + text)
+        else:
+            merged.append((t, text))
+    return merged
+
+
 def plot(run, output):
     import matplotlib
     matplotlib.use('Agg')
@@ -131,8 +142,9 @@ def plot(run, output):
             axis.axvline(t * scale, color='grey', linestyle=':', linewidth=0.8)
     axes[2].set_ylim(-2, 102)
     top = axes[0]
-    for index, (t, text) in enumerate(run.marks):   # inside the top plot, alternating ends so neighbours overlap less
-        event = text.startswith(('low', 'critical'))
+    labels = merged_marks(run.marks, run.time[-1] - run.time[0] if len(run.time) > 1 else 1.0)
+    for index, (t, text) in enumerate(labels):   # inside the top plot, alternating ends so neighbours overlap less
+        event = 'low' in text or 'critical' in text
         top.annotate(' %s ' % text, xy=(t * scale, 0.03 if index % 2 else 0.97), xycoords=('data', 'axes fraction'),
                      rotation=90, fontsize=7, va='bottom' if index % 2 else 'top', ha='right',
                      color='darkred' if event else 'dimgrey')
