@@ -11,14 +11,16 @@ port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0
 export ROS_MASTER_URI=http://127.0.0.1:$port
 work=$(mktemp -d)
 roslaunch -p "$port" battery_simulator demo.launch > "$work/demo.log" 2>&1 & demo=$!
-trap 'kill -INT $recorder $demo 2>/dev/null; wait $recorder $demo 2>/dev/null; rm -rf "$work"' EXIT
+trap 'kill -INT $recorder $demo 2>/dev/null; wait $demo 2>/dev/null; rm -rf "$work"' EXIT
 until rostopic list >/dev/null 2>&1; do sleep 0.2; done
-rosbag record -O "$work/demo_cycle.bag" /battery_status /battery_low /battery_critical /patrol_and_dock/phase \
-  __name:=demo_recorder > /dev/null 2>&1 & recorder=$!
+rosbag record -O "$work/demo_cycle.bag" /battery_status /battery_low /battery_critical \
+  /patrol_and_dock/phase __name:=demo_recorder > /dev/null 2>&1 & recorder=$!
 # one whole cycle: PATROL, GO_TO_DOCK, CHARGING, UNDOCK, PATROL
 until [ "$(grep -c 'phase [A-Z_]* at' "$work/demo.log")" -ge 5 ]; do sleep 0.5; done
 sleep 2   # a little of the second patrol
-kill -INT $recorder; wait $recorder || true
+rosnode kill /demo_recorder > /dev/null   # asks our recorder node to stop: it closes the bag
+for _ in $(seq 100); do [ -f "$work/demo_cycle.bag" ] && break; sleep 0.1; done
+wait $recorder || true
 grep 'phase [A-Z_]* at' "$work/demo.log" | sed 's/.*\]: //'
 cp "$work/demo_cycle.bag" "$root/docs/demo_cycle.bag"
 rosrun battery_simulator battery_plot.py "$root/docs/demo_cycle.bag" -o "$root/docs/demo_cycle.png" \

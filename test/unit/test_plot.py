@@ -58,3 +58,4 @@ def test_marks_at_the_same_moment_become_one_label():
     marks = [(53.0, 'FULL'), (53.2, 'UNDOCK'), (0.0, 'DISCHARGING'), (0.1, 'low'), (30.0, 'CHARGING')]
     assert plot.merged_marks(marks, 100.0) == [(0.0, 'DISCHARGING, low'), (30.0, 'CHARGING'), (53.0, 'FULL, UNDOCK')]
     assert plot.merged_marks(marks, 1.0) == sorted(marks)
+    assert plot.merged_marks([(5.0, 'CHARGING'), (5.1, 'CHARGING')], 100.0) == [(5.0, 'CHARGING')]

@@ -116,7 +116,8 @@ def merged_marks(marks, span, fraction=0.02):
     merged = []
     for t, text in sorted(marks):
         if merged and t - merged[-1][0] < fraction * span:
-            merged[-1] = (merged[-1][0], merged[-1][1] + ', ' + text)
+            if text not in merged[-1][1].split(', '):   # a status and a phase may say the same (CHARGING)
+                merged[-1] = (merged[-1][0], merged[-1][1] + ', ' + text)
         else:
             merged.append((t, text))
     return merged
