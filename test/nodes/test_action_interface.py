@@ -138,7 +138,8 @@ class TestActionInterface(unittest.TestCase):
         self.assertIn('Preempted', text)
         self.assertIn('new goal', text)
         self.assertRegex(text, r'\d+\.\d %')
-        self.assertEqual(self.client.get_state(), GoalStatus.ACTIVE, 'the new goal runs on')
+        # the client learns ACTIVE from a goal status message, which may come after the feedback
+        wait_for(lambda: self.client.get_state() == GoalStatus.ACTIVE, 2.0, 'the new goal running on')
         self.assertTrue(second.snapshot())
 
     def test_cancel_preempts_with_the_level(self):
