@@ -65,7 +65,7 @@ class TestDemo(unittest.TestCase):
             self.assertEqual([phase for phase, _ in phases], CYCLE, 'speed %g: %r' % (speed, phases))
             docked[speed] = dict(phases)['CHARGING']
             self.assertGreater(docked[speed], LOW - 3.0, 'speed %g docked at %.1f %%, more than 3 points under '
-                               'the low level' % (speed, docked[speed]))
+                               'the low level: %r' % (speed, docked[speed], phases))
             # UNDOCK follows the charge goal's "Full"; its logged level is the latest battery_status (2 Hz)
             self.assertGreater(dict(phases)['UNDOCK'], 95.0, 'speed %g: charged to full' % speed)
         self.assertAlmostEqual(docked[60], docked[240], delta=3.0,

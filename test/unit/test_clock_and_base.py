@@ -39,3 +39,45 @@ def test_no_command_drives_or_turns_past_its_goal_within_a_step(step_s):
         assert 0.0 <= linear * step_s <= 0.5 * math.hypot(*goal) + 1e-12
         heading = math.atan2(goal[1], goal[0])
         assert abs(angular * step_s) <= 0.5 * abs(heading) + 1e-12
+
+
+def test_the_clock_holds_until_every_named_topic_has_a_publisher():
+    published = [('/odom', 'nav_msgs/Odometry'), ('/battery_status', 'sensor_msgs/BatteryState')]
+    assert sim_clock.missing_publishers(['/odom', '/patrol_and_dock/phase'], published) == ['/patrol_and_dock/phase']
+    assert sim_clock.missing_publishers(['/odom', '/battery_status'], published) == []
+
+
+def _behaviour_with_pose(pose_stamp_s, commanded_at_s):
+    """A PatrolAndDock without a master: just the inputs that _fresh_inputs reads."""
+    import threading
+    behaviour = patrol.PatrolAndDock.__new__(patrol.PatrolAndDock)
+    behaviour._lock = threading.Lock()
+    behaviour._pose_arrived = threading.Condition(behaviour._lock)
+    behaviour._pose, behaviour._low, behaviour._contact = (1.0, 2.0, 0.0), True, False
+    behaviour._pose_stamp_s, behaviour._commanded_at_s = pose_stamp_s, commanded_at_s
+    return behaviour
+
+
+def test_a_pose_the_last_command_has_not_moved_is_not_steered_again(monkeypatch):
+    # odometry queued seconds late on a starved machine: steering it again turned the robot in circles
+    monkeypatch.setattr(patrol, 'FRESH_POSE_WAIT_S', 0.01)
+    assert _behaviour_with_pose(10.0, 10.0)._fresh_inputs() == (None, True, False)
+    assert _behaviour_with_pose(9.4, 10.0)._fresh_inputs() == (None, True, False)
+    assert _behaviour_with_pose(10.6, 10.0)._fresh_inputs() == ((1.0, 2.0, 0.0), True, False)
+
+
+@pytest.mark.parametrize('step_s', [0.05, 0.24, 0.96])
+def test_undocking_ends_although_each_step_drives_half_the_way_left(step_s):
+    behaviour = patrol.PatrolAndDock.__new__(patrol.PatrolAndDock)
+    behaviour._phase, behaviour._undock_from, behaviour._undock_distance = patrol.UNDOCK, (0.0, 0.0), 0.6
+    behaviour._speed, behaviour._step_s = 0.3, step_s
+    entered = []
+    behaviour._enter = entered.append
+    pose = (0.0, 0.0, 0.0)
+    for _ in range(200):
+        twist = behaviour._control(pose, False, False)
+        if entered:
+            break
+        pose, _ = fake_base.advance(pose, (twist.linear.x, twist.angular.z, 0.0), 0.0, step_s, 100.0)
+    assert entered == [patrol.PATROL]
+    assert 0.6 - patrol.ARRIVED_M <= math.hypot(*pose[:2]) <= 0.6

@@ -107,7 +107,7 @@ class FakeBase:
             timeout_s = max(self._timeout_s, 1.5 * min(self._steps, default=0.0))
             self._pose, moving = advance(self._pose, command, last, now, timeout_s)
             last = now
-            self._publish(*(command[:2] if moving else (0.0, 0.0)))
+            self._publish(now, *(command[:2] if moving else (0.0, 0.0)))
             if not self._sleep(rate):
                 break
 
@@ -119,9 +119,10 @@ class FakeBase:
         except rospy.ROSInterruptException:
             return False
 
-    def _publish(self, linear, angular):
+    def _publish(self, now_s, linear, angular):
+        """odom and tf of the pose at ROS time ``now_s`` (the time integrated to, not a later tick's)."""
         x, y, yaw = self._pose
-        stamp = rospy.Time.now()
+        stamp = rospy.Time.from_sec(now_s)
         odom = Odometry()
         odom.header.stamp, odom.header.frame_id = stamp, self._frames[0]
         odom.child_frame_id = self._frames[1]

@@ -42,6 +42,7 @@ STARTUP_WAIT_S = 30.0     # wall seconds to wait for the battery's action server
 ARRIVED_M = 0.08          # a waypoint counts as reached within this distance (or half a step's drive)
 DOCKED_M = 0.15           # stop this close to the dock: well inside battery_dock_contact's radius (0.3 m)
 MAX_TURN_RADPS = 1.5
+FRESH_POSE_WAIT_S = 0.1   # wall seconds to wait for odometry newer than the last command
 DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
 
 
@@ -84,7 +85,10 @@ class PatrolAndDock:
         self._speed = speed
         self._undock_distance = undock_distance
         self._lock = threading.Lock()   # guards the inputs below
+        self._pose_arrived = threading.Condition(self._lock)
         self._pose = None
+        self._pose_stamp_s = -math.inf   # ROS time of the pose
+        self._commanded_at_s = -math.inf   # ROS time of the last command sent
         self._low = False
         self._contact = False
         self._percentage = float('nan')
@@ -116,6 +120,8 @@ class PatrolAndDock:
         yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
         with self._lock:
             self._pose = (pose.position.x, pose.position.y, yaw)
+            self._pose_stamp_s = odom.header.stamp.to_sec()
+            self._pose_arrived.notify_all()
 
     def _on_low(self, msg):
         with self._lock:
@@ -152,14 +158,26 @@ class PatrolAndDock:
             if now > last or now < last - 1.0:   # ROS time moved (a coarse clock: rospy.Rate may wake twice a tick)
                 self._step_s = max(1.0 / CONTROL_RATE_HZ, now - last) if now > last else 1.0 / CONTROL_RATE_HZ
                 last = now
-                with self._lock:
-                    pose, low, contact = self._pose, self._low, self._contact
+                pose, low, contact = self._fresh_inputs()
                 if pose is not None:
                     self._cmd_pub.publish(self._control(pose, low, contact))
+                    self._commanded_at_s = now
             try:
                 rate.sleep()
             except rospy.ROSInterruptException:
                 break
+
+    def _fresh_inputs(self):
+        """(pose, low, contact), the pose None unless it is newer than the last command.
+
+        A pose that the last command has not yet moved would be steered again: on a
+        starved machine odometry queues up seconds late and the robot turns in circles.
+        Without a fresh pose no command is sent, and the base stops at its cmd_vel timeout.
+        """
+        with self._lock:
+            self._pose_arrived.wait_for(lambda: self._pose_stamp_s > self._commanded_at_s, FRESH_POSE_WAIT_S)
+            fresh = self._pose_stamp_s > self._commanded_at_s
+            return (self._pose if fresh else None), self._low, self._contact
 
     def _control(self, pose, low, contact):
         """One control step of the phase machine; the Twist to send."""
@@ -190,12 +208,13 @@ class PatrolAndDock:
                               state, self._client.get_goal_status_text())
                 self._client.send_goal(battery_simGoal(charge_state=True))
             return Twist()
-        # UNDOCK: back straight off the dock, then patrol from the first waypoint
-        if math.hypot(x - self._undock_from[0], y - self._undock_from[1]) >= self._undock_distance:
+        # UNDOCK: back straight off the dock, then patrol from the first waypoint (within ARRIVED_M of
+        # the distance: halving what is left each step would otherwise never get there)
+        left_m = self._undock_distance - math.hypot(x - self._undock_from[0], y - self._undock_from[1])
+        if left_m < ARRIVED_M:
             self._next_waypoint = 0
             self._enter(PATROL)
             return Twist()
-        left_m = self._undock_distance - math.hypot(x - self._undock_from[0], y - self._undock_from[1])
         return self._twist(-min(0.5 * self._speed, 0.5 * left_m / self._step_s), 0.0)
 
     @staticmethod
