@@ -62,7 +62,8 @@ from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.battery.workers import StatusTimer, UpdateLoop
 from battery_simulator.cfg import BatterySimConfig
 from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
-from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
+from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, default_config_path,
+                                               load_power_error, load_yaml)
 from battery_simulator.core.time_base import TimeBase
 from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
                                    battery_simResult)
@@ -77,8 +78,6 @@ FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is
 INVALID_LOG_PERIOD_S = 10.0
 OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
 LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
-MAX_SPEED_MPS = 50.0      # a cmd_vel beyond these is no robot's and is ignored (its power would overflow)
-MAX_TURN_RADPS = 50.0
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
 FAULTS = {
     'charger_fault': 'charger connected but no current flows',
@@ -287,8 +286,7 @@ class BatterySimServer:
             return   # nothing commanded yet, or the clock jumped back
         held_s = min(now, stamp + self.params.cmd_vel_timeout_s) - max(since, stamp)   # on the clock
         if held_s > 0.0:   # in simulated seconds, as the model steps
-            self._motion_energy_j += held_s * self._time_base.time_scale * (
-                self.params.drive_power_w_per_mps * speed + self.params.turn_power_w_per_radps * turn)
+            self._motion_energy_j += held_s * self._time_base.time_scale * self.params.motion_power_w(speed, turn)
 
     @contextmanager
     def _service_change(self):
@@ -374,7 +372,7 @@ class BatterySimServer:
         stamp, speed, turn = self._motion
         if stamp is None or not 0.0 <= now - stamp <= self.params.cmd_vel_timeout_s:
             return 0.0
-        return self.params.drive_power_w_per_mps * speed + self.params.turn_power_w_per_radps * turn
+        return self.params.motion_power_w(speed, turn)
 
     def _read_mode_param(self):
         try:
@@ -530,15 +528,14 @@ class BatterySimServer:
         name, power_w = request.name.strip(), request.power_w
         if not name:
             return SetLoadResponse(success=False, message='name must not be empty')
-        limit_w = self.params.max_discharge_power_w
-        if not 0.0 <= power_w <= limit_w:   # also NaN
-            return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number in [0, %g] W '
-                                   '(the most the pack can deliver)' % (power_w, limit_w))
+        error = load_power_error(self.params, 'power_w', power_w, power_w, 'it')
+        if error:
+            return SetLoadResponse(success=False, message=error)
         with self._service_change():
             total_w = sum(p for n, p in self._payloads.items() if n != name) + power_w
-            if total_w > limit_w:
-                return SetLoadResponse(success=False, message='power_w = %g W is invalid: the payload loads would '
-                                       'total %g W, beyond the %g W the pack can deliver' % (power_w, total_w, limit_w))
+            error = load_power_error(self.params, 'power_w', power_w, total_w, 'the payload loads')
+            if error:
+                return SetLoadResponse(success=False, message=error)
             if power_w > 0.0:
                 self._payloads[name] = power_w
             else:
