@@ -23,6 +23,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
+from battery_simulator.srv import Predict, PredictRequest
 
 REFERENCE_NODE = '''
 import sys, rospy
@@ -270,6 +271,39 @@ def measure_cost_and_start(processes, rows):
                  'max %.2f s' % max(starts), '< 3 s'))
 
 
+def one_hour_plan(charge_to_percentage):
+    """A task allocator's question: an hour of driving, turning and a payload, in 60 one-minute segments."""
+    return PredictRequest(duration_s=[60.0] * 60, power_w=[5.0 * (k % 3) for k in range(60)],
+                          speed_mps=[0.22 * (k % 2) for k in range(60)], turn_radps=[0.5 * (k % 4) for k in range(60)],
+                          charge_to_percentage=charge_to_percentage)
+
+
+def measure_prediction(processes, rows, calls=10):
+    """Wall ms per battery_simulator/predict call on a running server, median of ``calls`` (after one)."""
+    sim = launch(processes, 'sim.launch', 'predict')
+    try:
+        rospy.wait_for_service('/predict/battery_simulator/predict', 30.0)
+        predict = rospy.ServiceProxy('/predict/battery_simulator/predict', Predict, persistent=True)
+        figures = []
+        for charge_to_percentage in (float('nan'), 100.0):
+            request = one_hour_plan(charge_to_percentage)
+            assert predict(request).success
+            times = []
+            for _ in range(calls):
+                sent = time.perf_counter()
+                predict(request)
+                times.append(1000.0 * (time.perf_counter() - sent))
+            figures.append(times)
+        predict.close()
+    finally:
+        processes.stop(sim)
+    (plan, charged) = figures
+    rows.append(('predict: a one-hour plan (60 segments), median of %d calls' % calls,
+                 '%.1f ms median' % statistics.median(plan),
+                 'max %.1f ms; with a charge to 100 %%: %.1f ms median' % (max(plan), statistics.median(charged)),
+                 '<= 50 ms'))
+
+
 def threads(pid):
     with open('/proc/%d/status' % pid) as stream:
         return next(int(line.split()[1]) for line in stream if line.startswith('Threads:'))
@@ -368,4 +402,4 @@ def run(sections):
     return rows
 
 
-SECTIONS = (measure_goals, measure_contact, measure_cost_and_start, measure_rates, measure_fleet)
+SECTIONS = (measure_goals, measure_contact, measure_cost_and_start, measure_prediction, measure_rates, measure_fleet)

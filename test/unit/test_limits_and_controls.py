@@ -193,6 +193,16 @@ def test_time_base_ignores_the_first_reading_and_backward_jumps():
     assert scaled.elapsed(101.0) == pytest.approx(22.0)
 
 
+def test_time_base_pending_tells_the_next_elapsed_without_taking_the_reading():
+    base = TimeBase(22.0, zero_is_unset=True)
+    assert base.pending(0.0) == 0.0 and base.pending(5.0) == 0.0, 'no reading yet'
+    base.elapsed(100.0)
+    assert base.pending(101.0) == pytest.approx(22.0)
+    assert base.pending(101.0) == pytest.approx(22.0), 'not taken'
+    assert base.pending(99.0) == 0.0 and base.restarts == 0, 'a jump back: nothing, and no restart'
+    assert base.elapsed(101.0) == pytest.approx(22.0)
+
+
 def test_level_alarm_gives_one_event_for_a_dithering_level():
     alarm = LevelAlarm(0.20, 0.05)
     events = [alarm.update(level) for level in [0.25, 0.21, 0.199, 0.205, 0.195, 0.21, 0.19, 0.24, 0.2]]

@@ -148,20 +148,21 @@ def test_an_empty_file_names_the_missing_header(tmp_path):
         read_profile(profile)
 
 
-HELP = '''usage: battery_replay.py [-h] [--preset PRESET | --config CONFIG] [--soc SOC]
+HELP = '''usage: battery_replay.py [-h] [--charge A] [--preset PRESET | --config CONFIG] [--soc SOC]
                          [--max-step MAX_STEP] [-o OUTPUT] [--list-presets]
                          [profile]
 
-Replay a CSV load profile through the battery model.
+Replay a CSV load profile through the battery model, or a CC-CV charge (--charge).
 
 positional arguments:
   profile               CSV with time (s) and current (A) or power (W)
 
 options:
   -h, --help            show this help message and exit
+  --charge A            instead of a profile: a CC-CV charge at A amperes from --soc to Full
   --preset PRESET       battery preset (default lg_hg2_3s1p)
   --config CONFIG       YAML file of battery parameters
-  --soc SOC             initial state of charge, 0..1 (default 1)
+  --soc SOC             initial state of charge, 0..1 (default 1; with --charge 0): 0.2 = 20 %
   --max-step MAX_STEP   longest model step, s (default 1, at least 0.001)
   -o OUTPUT, --output OUTPUT
                         output CSV file (default: stdout)
@@ -178,7 +179,7 @@ def test_help_text(monkeypatch):
 def test_usage_errors_are_one_line_naming_the_problem(tmp_path):
     result = run_cli()
     assert result.returncode == 2
-    assert result.stderr.splitlines()[-1] == 'battery_replay.py: error: the profile CSV is required'
+    assert result.stderr.splitlines()[-1] == 'battery_replay.py: error: the profile CSV (or --charge A) is required'
     profile = profile_file(tmp_path)
     result = run_cli(profile, '--soc', '1.5')
     assert result.stderr.splitlines()[-1] == ('battery_replay.py: error: argument --soc: '

@@ -37,10 +37,13 @@ act on the model through the same lock.
   - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
   - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
-  Each service (and dynamic_reconfigure) replies once battery_state_pub has sent the
+  - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after
+    it) would do, from a copy of the model (core/prediction.py); changes nothing, so it replies at once
+  Each other service (and dynamic_reconfigure) replies once battery_state_pub has sent the
   state it changed on battery_status (publish_now, acknowledged on status_sent; without
   a battery_state_pub, once it is published), so the next battery_status shows the change.
 """
+import copy
 import math
 import random
 import threading
@@ -62,7 +65,9 @@ from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.battery.workers import StatusTimer, UpdateLoop
 from battery_simulator.cfg import BatterySimConfig
 from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
-from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
+from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, default_config_path,
+                                               load_power_error, load_yaml)
+from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
 from battery_simulator.core.time_base import TimeBase
 from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
                                    battery_simResult)
@@ -70,15 +75,13 @@ from battery_simulator.ros import topics
 from battery_simulator.ros.cached_param import CachedParam
 from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number, signals_held,
                                            wait_for_rosout)
-from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
-                                   SetStateResponse)
+from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, PredictResponse, SetLoad,
+                                   SetLoadResponse, SetState, SetStateResponse)
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 INVALID_LOG_PERIOD_S = 10.0
 OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
 LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
-MAX_SPEED_MPS = 50.0      # a cmd_vel beyond these is no robot's and is ignored (its power would overflow)
-MAX_TURN_RADPS = 50.0
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
 FAULTS = {
     'charger_fault': 'charger connected but no current flows',
@@ -89,6 +92,9 @@ FAULTS = {
 #: the dynamic_reconfigure keys that are battery parameters (time_scale is the node's)
 LIVE_PARAMETERS = ('load_current_a', 'load_power_w', 'charge_current_a', 'ambient_temperature_c',
                    'drive_power_w_per_mps', 'turn_power_w_per_radps')
+#: the model's named loads: cmd_vel's motion, set_load's payloads
+MOTION_LOAD = 'motion'
+PAYLOAD_LOAD = 'payload'
 _INVALID = object()
 
 
@@ -234,6 +240,7 @@ class BatterySimServer:
             rospy.Service(ns + topics.SET_STATE, SetState, self._set_state),
             rospy.Service(ns + topics.RESET, Trigger, self._reset),
             rospy.Service(ns + topics.INJECT_FAULT, InjectFault, self._inject_fault),
+            rospy.Service(ns + topics.PREDICT, Predict, self._predict),
         ]
         self._publish_state(self.model.snapshot())
         self._server.start()
@@ -274,7 +281,7 @@ class BatterySimServer:
         dt_s = self._time_base.elapsed(now)
         motion_w = self._motion_energy_j / dt_s if dt_s > 0.0 else self._motion_power_w(now)
         self._motion_energy_j = 0.0
-        self.model.set_extra_load('motion', power_w=motion_w)
+        self.model.set_extra_load(MOTION_LOAD, power_w=motion_w)
         self.model.step(dt_s)
         return motion_w
 
@@ -287,8 +294,7 @@ class BatterySimServer:
             return   # nothing commanded yet, or the clock jumped back
         held_s = min(now, stamp + self.params.cmd_vel_timeout_s) - max(since, stamp)   # on the clock
         if held_s > 0.0:   # in simulated seconds, as the model steps
-            self._motion_energy_j += held_s * self._time_base.time_scale * (
-                self.params.drive_power_w_per_mps * speed + self.params.turn_power_w_per_radps * turn)
+            self._motion_energy_j += held_s * self._time_base.time_scale * self.params.motion_power_w(speed, turn)
 
     @contextmanager
     def _service_change(self):
@@ -374,7 +380,7 @@ class BatterySimServer:
         stamp, speed, turn = self._motion
         if stamp is None or not 0.0 <= now - stamp <= self.params.cmd_vel_timeout_s:
             return 0.0
-        return self.params.drive_power_w_per_mps * speed + self.params.turn_power_w_per_radps * turn
+        return self.params.motion_power_w(speed, turn)
 
     def _read_mode_param(self):
         try:
@@ -530,20 +536,19 @@ class BatterySimServer:
         name, power_w = request.name.strip(), request.power_w
         if not name:
             return SetLoadResponse(success=False, message='name must not be empty')
-        limit_w = self.params.max_discharge_power_w
-        if not 0.0 <= power_w <= limit_w:   # also NaN
-            return SetLoadResponse(success=False, message='power_w = %r is invalid: must be a number in [0, %g] W '
-                                   '(the most the pack can deliver)' % (power_w, limit_w))
+        error = load_power_error(self.params, 'power_w', power_w, power_w, 'it')
+        if error:
+            return SetLoadResponse(success=False, message=error)
         with self._service_change():
             total_w = sum(p for n, p in self._payloads.items() if n != name) + power_w
-            if total_w > limit_w:
-                return SetLoadResponse(success=False, message='power_w = %g W is invalid: the payload loads would '
-                                       'total %g W, beyond the %g W the pack can deliver' % (power_w, total_w, limit_w))
+            error = load_power_error(self.params, 'power_w', power_w, total_w, 'the payload loads')
+            if error:
+                return SetLoadResponse(success=False, message=error)
             if power_w > 0.0:
                 self._payloads[name] = power_w
             else:
                 self._payloads.pop(name, None)
-            self.model.set_extra_load('payload', power_w=sum(self._payloads.values()))
+            self.model.set_extra_load(PAYLOAD_LOAD, power_w=sum(self._payloads.values()))
             total = sum(self._payloads.values())
         return SetLoadResponse(success=True, message='%s: %g W; payload loads now %g W' % (name, power_w, total))
 
@@ -586,6 +591,27 @@ class BatterySimServer:
         self._log.warn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
         return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
                                                                       else 'cleared'))
+
+    def _predict(self, request):
+        """What the request's plan would do, from a copy of the model taken under the lock: the copy is
+        brought to now at its present loads, and the plan's motion takes the place of cmd_vel's."""
+        try:
+            segments = plan_from_arrays(request.duration_s, request.current_a, request.power_w,
+                                        request.speed_mps, request.turn_radps)
+            with self._lock:
+                model = copy.deepcopy(self.model)
+                behind_s = self._time_base.pending(self._clock())
+            model.step(behind_s)
+            model.set_extra_load(MOTION_LOAD)
+            result = predict(model, segments, request.charge_to_percentage)
+        except PredictionError as error:
+            nan = math.nan
+            return PredictResponse(success=False, message=str(error), end_percentage=nan, end_voltage_v=nan,
+                                   min_voltage_v=nan, max_temperature_c=nan, cut_off_at_s=nan, charge_time_s=nan)
+        return PredictResponse(success=True, message=result.summary(), feasible=result.feasible,
+                               end_percentage=result.end_percentage, end_voltage_v=result.end_voltage_v,
+                               min_voltage_v=result.min_voltage_v, max_temperature_c=result.max_temperature_c,
+                               cut_off_at_s=result.cut_off_at_s, charge_time_s=result.charge_time_s)
 
     def _reconfigure_callback(self, config, level):
         """Apply live changes, validated like the start-up values: a refused value is logged and the old one kept.

@@ -468,6 +468,11 @@ class BatteryModel:
         return self.cell_current_a * self.params.cells_parallel
 
     @property
+    def extra_power_w(self):
+        """The named power loads (set_extra_load) together, W: they apply while discharging."""
+        return self._extra_power_w
+
+    @property
     def capacity_ah(self):
         """Pack capacity now (design capacity x state of health), Ah."""
         return self._capacity_as / 3600.0 * self.params.cells_parallel

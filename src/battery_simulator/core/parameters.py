@@ -132,10 +132,19 @@ class BatteryParameters:
         return self.cell_capacity_ah * self.cells_parallel
 
     @property
+    def max_discharge_current_a(self):
+        """The most current the pack may deliver (its cells' datasheet current), A."""
+        return self.cell_max_discharge_current_a * self.cells_parallel
+
+    @property
     def max_discharge_power_w(self):
         """The most power the pack can ever deliver, W: its datasheet current at its full voltage."""
         return (self.cell_max_discharge_current_a * self.cells_parallel
                 * self.cell_charge_voltage_v * self.cells_series)
+
+    def motion_power_w(self, speed_mps, turn_radps):
+        """The motion load of a robot driving at ``speed_mps`` and turning at ``turn_radps`` (either sign), W."""
+        return self.drive_power_w_per_mps * abs(speed_mps) + self.turn_power_w_per_radps * abs(turn_radps)
 
     @property
     def pack_termination_current_a(self):
@@ -152,6 +161,9 @@ MAX_VOLTAGE_NOISE_V = 1.0
 MAX_CURRENT_NOISE_A = 5.0
 #: drive / turn power per unit of speed: 10 kW per m/s is already a car's drive train
 MAX_MOTION_POWER_COEFFICIENT = 10000.0
+#: a speed or turn rate beyond these is no robot's (cmd_vel ignores it, prediction refuses it)
+MAX_SPEED_MPS = 50.0
+MAX_TURN_RADPS = 50.0
 
 # (parameter, check, what is allowed); checked in this order.
 _RULES = (
@@ -244,6 +256,22 @@ def _validate_currents(params):
         _fail('load_power_w', params.load_power_w,
               'at most %g W (what the pack delivers at %g V beside load_current_a within '
               'cell_max_discharge_current_a)' % (max_power_w, cut_off_v))
+
+
+def load_power_error(params, field, power_w, total_w, others):
+    """Why a load of ``power_w`` W (the request's ``field``) is beyond the pack, or None.
+
+    ``total_w`` is the power it would make with ``others`` (what they are, for the message).
+    set_load and the prediction use the same rule: at most what the pack can ever deliver.
+    """
+    limit_w = params.max_discharge_power_w
+    if not 0.0 <= power_w <= limit_w:   # also NaN
+        return ('%s = %r is invalid: must be a number in [0, %g] W (the most the pack can deliver)'
+                % (field, power_w, limit_w))
+    if not total_w <= limit_w:
+        return ('%s = %g W is invalid: %s would total %g W, beyond the %g W the pack can deliver'
+                % (field, power_w, others, total_w, limit_w))
+    return None
 
 
 def _validate_ocv_table(params):

@@ -1,6 +1,7 @@
-"""Replay a CSV load profile through the battery model (no ROS needed).
+"""Replay a CSV load profile through the battery model, or a CC-CV charge (no ROS needed).
 
     battery_replay.py profile.csv [--preset NAME | --config FILE] [--soc 0.8] [-o out.csv]
+    battery_replay.py --charge 1.5 [--soc 0.2] [--preset NAME | --config FILE] [-o out.csv]
     python3 -m battery_simulator.core.replay profile.csv ...
 
 The profile has a header with ``time`` (s, never decreasing: equal times, as
@@ -9,6 +10,11 @@ discharge, as in sensor_msgs/BatteryState) or ``power`` (W, same sign). Each
 row's value is held until the next row's time. The output has one
 row per profile row: the state at that time (time, voltage, current, soc 0..1,
 temperature, status).
+
+``--charge A`` charges at A amperes (the charger's constant current) from
+``--soc`` (default 0) until the CV taper ends (Full), through the same
+prediction as the service ``battery_simulator/predict``: one row per model
+step, and on stderr how long it took.
 """
 import argparse
 import contextlib
@@ -16,9 +22,11 @@ import csv
 import math
 import os
 import sys
+from dataclasses import replace
 
 from battery_simulator.core.battery_model import BatteryModel, Mode
 from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
+from battery_simulator.core.prediction import predict
 
 OUTPUT_COLUMNS = ('time', 'voltage', 'current', 'soc', 'temperature', 'status')
 #: the shortest --max-step, s
@@ -98,10 +106,32 @@ def _row(time_s, model):
             '%.5f' % model.state_of_charge, '%.2f' % model.temperature_c, model.status.name)
 
 
+def charge(params, charge_current_a, state_of_charge=0.0):
+    """A CC-CV charge at ``charge_current_a`` from ``state_of_charge`` to Full, through the prediction.
+
+    Returns (rows as OUTPUT_COLUMNS, seconds to Full); ParameterError for a current the pack refuses.
+    """
+    try:
+        params = replace(params, charge_current_a=charge_current_a)
+    except ParameterError as error:
+        raise ParameterError('--charge %g: %s' % (charge_current_a, error)) from None
+    rows = []
+    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    result = predict(model, (), charge_to_percentage=100.0, observe=lambda time_s, m: rows.append(_row(time_s, m)))
+    return rows, result.charge_time_s
+
+
 def _fraction(text):
     value = float(text)
     if not 0.0 <= value <= 1.0:
         raise argparse.ArgumentTypeError('%s is not in [0, 1] (a fraction: 0.5 = half full)' % text)
+    return value
+
+
+def _current(text):
+    value = float(text)
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError('%s is not a current in amperes > 0' % text)
     return value
 
 
@@ -114,19 +144,27 @@ def _step(text):
 
 def parse_arguments(argv):
     parser = argparse.ArgumentParser(
-        prog='battery_replay.py', description='Replay a CSV load profile through the battery model.')
+        prog='battery_replay.py',
+        description='Replay a CSV load profile through the battery model, or a CC-CV charge (--charge).')
     parser.add_argument('profile', nargs='?', help='CSV with time (s) and current (A) or power (W)')
+    parser.add_argument('--charge', type=_current, metavar='A',
+                        help='instead of a profile: a CC-CV charge at A amperes from --soc to Full')
     source = parser.add_mutually_exclusive_group()
     source.add_argument('--preset', help='battery preset (default %s)' % DEFAULT_PRESET)
     source.add_argument('--config', help='YAML file of battery parameters')
-    parser.add_argument('--soc', type=_fraction, default=1.0, help='initial state of charge, 0..1 (default 1)')
+    parser.add_argument('--soc', type=_fraction,
+                        help='initial state of charge, 0..1 (default 1; with --charge 0): 0.2 = 20 %%')
     parser.add_argument('--max-step', type=_step, default=1.0,
                         help='longest model step, s (default 1, at least %g)' % MIN_STEP_S)
     parser.add_argument('-o', '--output', help='output CSV file (default: stdout)')
     parser.add_argument('--list-presets', action='store_true', help='list the presets and exit')
     args = parser.parse_args(argv)
-    if not args.list_presets and args.profile is None:
-        parser.error('the profile CSV is required')
+    if args.charge is not None and args.profile is not None:
+        parser.error('give a profile CSV or --charge, not both')
+    if not args.list_presets and args.profile is None and args.charge is None:
+        parser.error('the profile CSV (or --charge A) is required')
+    if args.soc is None:
+        args.soc = 0.0 if args.charge is not None else 1.0
     return args
 
 
@@ -145,18 +183,28 @@ def _run(args):
         return
     try:
         params = load_yaml(args.config) if args.config else preset(args.preset or DEFAULT_PRESET)
-        profile = read_profile(args.profile)
+        if args.charge is not None:
+            rows, charge_time_s = charge(params, args.charge, args.soc)
+        else:
+            rows = replay(params, read_profile(args.profile), state_of_charge=args.soc, max_step_s=args.max_step)
     except (ParameterError, ProfileError) as error:
         sys.exit('battery_replay: %s' % error)
-    rows = replay(params, profile, state_of_charge=args.soc, max_step_s=args.max_step)
     if args.output:
         _write_file(args.output, rows)
-        return
-    try:
-        _write(sys.stdout, rows)
-        sys.stdout.flush()
-    except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    else:
+        try:
+            _write(sys.stdout, rows)
+            sys.stdout.flush()
+        except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    if args.charge is not None:
+        sys.stderr.write('battery_replay: %s charged at %g A from %g %% to Full in %.0f s (%s)\n' % (
+            params.name, args.charge, 100.0 * args.soc, charge_time_s, _hours_minutes(charge_time_s)))
+
+
+def _hours_minutes(seconds):
+    minutes = int(round(seconds / 60.0))
+    return '%d h %02d min' % divmod(minutes, 60)
 
 
 def _write_file(path, rows):

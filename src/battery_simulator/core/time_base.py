@@ -32,3 +32,10 @@ class TimeBase:
             self.restarts += 1
             return 0.0
         return (now - last) * self.time_scale
+
+    def pending(self, now):
+        """Scaled seconds from the previous reading to ``now``, without taking ``now`` as a reading
+        (what the next ``elapsed(now)`` would return, 0 where it would return 0)."""
+        if (self._zero_is_unset and now <= 0.0) or self._last is None or now < self._last:
+            return 0.0
+        return (now - self._last) * self.time_scale

@@ -20,6 +20,7 @@ SET_CHARGING = 'battery_simulator/set_charging'
 SET_STATE = 'battery_simulator/set_state'
 RESET = 'battery_simulator/reset'
 INJECT_FAULT = 'battery_simulator/inject_fault'
+PREDICT = 'battery_simulator/predict'
 
 #: sensor_msgs/BatteryState.power_supply_status by BatterySimState.charging_state
 CHARGING_STATES = ('Charging', 'Discharging', 'Full', 'Not Charging', 'Empty')

@@ -1,0 +1,260 @@
+"""The prediction (core/prediction.py) and battery_replay.py --charge, against hand numbers and fine steps."""
+import csv
+import io
+import math
+
+import pytest
+
+from battery_simulator.core.battery_model import BatteryModel, Mode, Status
+from battery_simulator.core.parameters import preset
+from battery_simulator.core.prediction import (MAX_PLAN_S, PredictionError, Segment, plan_from_arrays,
+                                               predict)
+from battery_simulator.core.replay import OUTPUT_COLUMNS
+from test_replay import run_cli
+
+NAN = float('nan')
+PACK = preset('lg_hg2_3s1p')   # 2.78 Ah, base load 1.5 A, charger 1.5 A, 50 W per m/s, 4 W per rad/s
+
+
+def pack(percentage, mode=Mode.DISCHARGE, params=PACK):
+    return BatteryModel(params, state_of_charge=percentage / 100.0, mode=mode)
+
+
+def stepped(model, segments, step_s=1.0):
+    """The reference: the plan in fixed steps (as a server at 10 Hz and time x10), and its cut-off time."""
+    model.set_mode(Mode.DISCHARGE)
+    time_s, cut_off_s = 0.0, NAN
+    for segment in segments:
+        model.set_extra_load('plan', current_a=segment.current_a, power_w=segment.power_w
+                             + model.params.motion_power_w(segment.speed_mps, segment.turn_radps))
+        for _ in range(int(round(segment.duration_s / step_s))):
+            model.step(step_s)
+            time_s += step_s
+            if model.status is Status.EMPTY and math.isnan(cut_off_s):
+                cut_off_s = time_s
+    return model, cut_off_s
+
+
+def charged(model, target_percentage, step_s=1.0):
+    """The reference charge time in fixed steps."""
+    model.set_mode(Mode.CHARGE)
+    time_s = 0.0
+    while not (model.status is Status.FULL or 100.0 * model.state_of_charge >= target_percentage):
+        model.step(step_s)
+        time_s += step_s
+    return time_s
+
+
+# -- the requests ----------------------------------------------------------------
+
+@pytest.mark.parametrize('arrays, message', [
+    (dict(duration_s=[1, 2, 3], current_a=[1, 2]),
+     'current_a has 2 entries but duration_s has 3: the arrays must have one length (an empty array counts as zeros)'),
+    (dict(duration_s=[10, 20, -1]), 'duration_s[2] = -1 is invalid: must be a number of seconds >= 0'),
+    (dict(duration_s=[NAN]), 'duration_s[0] = nan is invalid: must be a number of seconds >= 0'),
+    (dict(duration_s=[math.inf]), 'duration_s[0] = inf is invalid: must be a number of seconds >= 0'),
+    (dict(duration_s=[MAX_PLAN_S, 1.0]),
+     'duration_s totals 604801 s, which is invalid: a plan is at most 604800 s (7 days)'),
+    (dict(duration_s=[1], current_a=[-0.5]),
+     'current_a[0] = -0.5 is invalid: must be a number of amperes >= 0 (a load)'),
+    (dict(duration_s=[1, 1], power_w=[5, NAN]), 'power_w[1] = nan is invalid: must be a number of watts >= 0 (a load)'),
+    (dict(duration_s=[1], speed_mps=[51]), 'speed_mps[0] = 51 is invalid: must be a number in [-50, 50] m/s'),
+    (dict(turn_radps=[math.inf]), 'turn_radps[0] = inf is invalid: must be a number in [-50, 50] rad/s'),
+])
+def test_bad_arrays_name_the_field_the_index_and_what_is_allowed(arrays, message):
+    with pytest.raises(PredictionError) as error:
+        plan_from_arrays(**arrays)
+    assert str(error.value) == message
+
+
+def test_empty_arrays_count_as_zeros_and_signed_motion_counts_as_cmd_vel_does():
+    assert plan_from_arrays(duration_s=[60, 30], speed_mps=[0.2, -0.1]) == (
+        Segment(60.0, 0.0, 0.0, 0.2, 0.0), Segment(30.0, 0.0, 0.0, -0.1, 0.0))
+    assert plan_from_arrays() == ()
+    assert plan_from_arrays(duration_s=[MAX_PLAN_S]) == (Segment(MAX_PLAN_S),)
+
+
+@pytest.mark.parametrize('segment, charge_to, message', [
+    (Segment(60, current_a=19.0), NAN, 'current_a[0] = 19.0 is invalid: must be in [0, 18.5] A (with the base load '
+     'of 1.5 A, at most the 20 A the pack can deliver)'),
+    (Segment(60, power_w=300.0), NAN, 'power_w[0] = 300.0 is invalid: must be a number in [0, 252] W (the most the '
+     'pack can deliver)'),
+    (Segment(60, power_w=200.0, speed_mps=2.0), NAN, 'power_w[0] + the motion of speed_mps[0] and turn_radps[0] = '
+     '300.0 is invalid: must be a number in [0, 252] W (the most the pack can deliver)'),
+    (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (NaN: no charge)'),
+    (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (NaN: no charge)'),
+])
+def test_loads_beyond_the_pack_and_bad_levels_are_refused(segment, charge_to, message):
+    with pytest.raises(PredictionError) as error:
+        predict(pack(80), [segment], charge_to)
+    assert str(error.value) == message
+
+
+def test_the_payloads_count_against_the_pack_limit_as_set_load_counts_them():
+    model = pack(80)
+    model.set_extra_load('payload', power_w=200.0)
+    predict(model, [Segment(60, power_w=52.0)])
+    with pytest.raises(PredictionError) as error:
+        predict(model, [Segment(60, power_w=53.0)])
+    assert str(error.value) == ('power_w[0] = 53 W is invalid: with the base load and the payloads (200 W) it '
+                                'would total 253 W, beyond the 252 W the pack can deliver')
+
+
+# -- what it predicts ------------------------------------------------------------
+
+def test_an_hour_at_the_base_load_ends_where_coulomb_counting_says():
+    result = predict(pack(100), [Segment(3600)])
+    # 1.5 A for 1 h out of 2.78 Ah: 54.0 percentage points
+    assert result.end_percentage == pytest.approx(100.0 - 100.0 * 1.5 / 2.78, abs=0.05)
+    assert result.feasible and math.isnan(result.cut_off_at_s) and math.isnan(result.charge_time_s)
+    # a current plan is exact in whole-segment steps: the same as 1 s steps
+    reference, _ = stepped(pack(100), [Segment(3600)])
+    assert result.end_percentage == pytest.approx(100.0 * reference.state_of_charge, abs=0.01)
+    assert result.end_voltage_v == pytest.approx(reference.voltage_v, abs=0.01)
+
+
+def test_a_current_adds_to_the_base_load():
+    result = predict(pack(100), [Segment(1800, current_a=1.0)])
+    assert result.end_percentage == pytest.approx(100.0 - 100.0 * 2.5 * 0.5 / 2.78, abs=0.05)
+
+
+def test_the_motion_load_is_cmd_vel_s_drive_and_turn_power():
+    motion = predict(pack(90), [Segment(1200, speed_mps=0.2, turn_radps=-1.0)])
+    power = predict(pack(90), [Segment(1200, power_w=0.2 * 50.0 + 1.0 * 4.0)])
+    assert motion == power
+    assert motion.end_percentage < predict(pack(90), [Segment(1200)]).end_percentage - 5.0
+
+
+def test_the_payloads_of_the_model_apply():
+    model = pack(90)
+    model.set_extra_load('payload', power_w=15.0)
+    assert predict(model, [Segment(1200)]) == predict(pack(90), [Segment(1200, power_w=15.0)])
+
+
+def test_large_steps_agree_with_one_second_steps():
+    plan = [Segment(600, power_w=10.0), Segment(900, speed_mps=0.22, turn_radps=1.0), Segment(300, current_a=2.0),
+            Segment(1200, power_w=5.0)]
+    steps = []
+    result = predict(pack(95), plan, observe=lambda time_s, model: steps.append(time_s))
+    reference, cut_off_s = stepped(pack(95), plan)
+    assert result.end_percentage == pytest.approx(100.0 * reference.state_of_charge, abs=0.05)
+    assert result.feasible and math.isnan(cut_off_s)
+    assert len(steps) < 400, 'an hour of power loads in %d steps: large steps, not 1 s' % len(steps)
+    assert steps[-1] == pytest.approx(3000.0)
+
+
+@pytest.mark.parametrize('start, segment', [
+    (40, Segment(3000, power_w=20.0)),     # a power load: the knee of the OCV curve
+    (100, Segment(7200, current_a=0.5)),   # a current: exact, the model bisects within the step
+    (50, Segment(3000, power_w=60.0)),
+])
+def test_the_cut_off_time_agrees_with_fine_steps(start, segment):
+    result = predict(pack(start), [segment, Segment(600)])
+    _, cut_off_s = stepped(pack(start), [segment, Segment(600)], step_s=0.1)
+    assert not result.feasible
+    assert result.cut_off_at_s == pytest.approx(cut_off_s, rel=0.005)
+    assert result.min_voltage_v == pytest.approx(3 * 2.8, abs=0.01), 'the cut-off voltage'
+    assert result.end_percentage < 5.0
+
+
+def test_a_pack_already_empty_is_cut_off_at_once():
+    model = pack(0)
+    assert model.status is Status.EMPTY
+    result = predict(model, [Segment(60)])
+    assert not result.feasible and result.cut_off_at_s == 0.0
+    assert predict(model, [Segment(0)]).feasible, 'nothing to do: no cut-off'
+
+
+def test_the_charge_time_has_the_cv_taper():
+    result = predict(pack(20), [], 100.0)
+    cc_only_s = 0.8 * 2.78 * 3600.0 / 1.5   # capacity over current: what a linear planner says
+    assert result.charge_time_s > cc_only_s + 150.0, 'the CV taper takes its time'
+    assert result.charge_time_s == pytest.approx(charged(pack(20), 100.0, step_s=0.1), rel=0.005)
+    assert result.end_percentage == pytest.approx(20.0, abs=0.01), 'end_* is the end of the segments'
+
+
+@pytest.mark.parametrize('start, target', [(20, 90), (60, 100), (0, 100), (90, 95)])
+def test_charge_times_agree_with_fine_steps(start, target):
+    result = predict(pack(start), [], target)
+    assert result.charge_time_s == pytest.approx(charged(pack(start), target, step_s=0.1), rel=0.005)
+
+
+def test_the_charge_follows_the_segments():
+    plan = [Segment(1800, power_w=10.0)]
+    after = predict(pack(80), plan)
+    result = predict(pack(80), plan, 80.0)
+    assert result.end_percentage == after.end_percentage
+    reference, _ = stepped(pack(80), plan)
+    assert result.charge_time_s == pytest.approx(charged(reference, 80.0, step_s=0.1), rel=0.005)
+
+
+def test_charge_edge_cases():
+    assert predict(pack(50), [], 40.0).charge_time_s == 0.0, 'already there'
+    assert predict(pack(100), [], 100.0).charge_time_s == 0.0
+    faulty = pack(50, Mode.CHARGE)
+    faulty.set_charger_fault(True)
+    result = predict(faulty, [], 60.0)
+    assert math.isinf(result.charge_time_s)
+    assert 'never' in result.summary()
+
+
+def test_segments_run_discharging_even_on_the_charger():
+    docked = predict(pack(70, Mode.CHARGE), [Segment(600)])
+    assert docked.end_percentage == pytest.approx(predict(pack(70), [Segment(600)]).end_percentage, abs=1e-9)
+    assert docked.end_percentage < 70.0
+
+
+def test_the_model_is_not_changed():
+    model = pack(60)
+    model.set_extra_load('payload', power_w=5.0)
+    model.step(30.0)
+    before = (model.export_state(), model.snapshot(), model.mode, model.extra_power_w)
+    result = predict(model, [Segment(3000, power_w=60.0), Segment(600)], 100.0)
+    assert not result.feasible and result.charge_time_s > 0
+    assert (model.export_state(), model.snapshot(), model.mode, model.extra_power_w) == before
+
+
+def test_the_extremes_cover_the_plan():
+    result = predict(pack(90), [Segment(1200, power_w=80.0), Segment(1200)])
+    assert result.max_temperature_c > 25.0 + 5.0, 'a 7 A load heats the pack'
+    assert result.min_voltage_v < result.end_voltage_v, 'the voltage recovers once the load drops'
+
+
+# -- battery_replay.py --charge --------------------------------------------------------
+
+def test_cli_charge_from_20_percent_writes_the_usual_csv_and_says_how_long(tmp_path):
+    out = tmp_path / 'charge.csv'
+    result = run_cli('--charge', '1.5', '--soc', '0.2', '-o', out)
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    assert tuple(rows[0]) == OUTPUT_COLUMNS
+    assert float(rows[0]['soc']) == pytest.approx(0.2) and float(rows[0]['time']) == 0.0
+    assert rows[-1]['status'] == 'FULL' and float(rows[-1]['soc']) == 1.0
+    assert max(float(r['current']) for r in rows) == pytest.approx(1.5)
+    expected_s = predict(pack(20, Mode.IDLE), [], 100.0).charge_time_s
+    assert float(rows[-1]['time']) == pytest.approx(expected_s, abs=0.01)
+    assert result.stderr == ('battery_replay: lg_hg2_3s1p charged at 1.5 A from 20 %% to Full in %.0f s (1 h 33 min)\n'
+                             % expected_s)
+    assert len(rows) < 500, 'large steps'
+
+
+def test_cli_charge_defaults_to_empty_and_takes_presets_and_refuses_bad_currents():
+    result = run_cli('--charge', '4', '--preset', 'lg_hg2_7s4p')
+    assert result.returncode == 0, result.stderr
+    assert 'from 0 % to Full' in result.stderr
+    assert list(csv.reader(io.StringIO(result.stdout)))[-1][-1] == 'FULL'
+    result = run_cli('--charge', '10')
+    assert result.returncode == 1
+    assert result.stderr.strip() == ('battery_replay: --charge 10: parameter charge_current_a = 10.0 is invalid: '
+                                     'must be at most 4 A (cell_max_charge_current_a x cells_parallel)')
+    for bad in ('0', '-1', 'nan'):
+        result = run_cli('--charge', bad)
+        assert result.returncode == 2
+        assert result.stderr.splitlines()[-1] == ('battery_replay.py: error: argument --charge: %s is not a current '
+                                                  'in amperes > 0' % bad)
+
+
+def test_cli_charge_or_a_profile_not_both(tmp_path):
+    result = run_cli('--charge', '1.5', tmp_path / 'p.csv')
+    assert result.returncode == 2
+    assert result.stderr.splitlines()[-1] == 'battery_replay.py: error: give a profile CSV or --charge, not both'
