@@ -182,6 +182,7 @@ def main():
         logger = logging.getLogger(name)
         logger.addHandler(_ToRosLog(logging.WARNING))
         logger.propagate = False
+    logging.getLogger('tornado.access').setLevel(logging.WARNING)   # not a line per request
     with signals_held():
         settings = init_node('battery_dashboard', read_settings)
         hub = Hub(settings['history_s'], settings['allow_control'])
