@@ -154,7 +154,7 @@ class Hub:
         """Send what changed to every open page (called every PUSH_PERIOD_S on the web thread)."""
         with self.lock:
             now = self.clock()
-            changed, removed = self.model.tick(now)
+            changed, removed = self.model.tick(now, views=bool(self.pages))
         if self.pages and (changed or removed):
             message = to_json({'type': 'update', 'now': now, 'batteries': changed, 'removed': removed})
             for page in list(self.pages):

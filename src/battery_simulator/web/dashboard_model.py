@@ -309,10 +309,11 @@ class DashboardModel:
             record.on_battery(dict(values), now, self.history_step_s)
             self._changed.add(topic)
 
-    def tick(self, now):
+    def tick(self, now, views=True):
         """Trim histories, drop batteries silent for ~history_s, find stale changes.
 
-        Returns (views of changed batteries, removed topics) since the last tick."""
+        Returns (views of changed batteries, removed topics) since the last tick (no views,
+        only the removed topics, when ``views`` is false: nobody is looking)."""
         for topic, record in list(self.records.items()):
             record.trim(now, self.history_s)
             last = record.last_message if record.last_message is not None else record.discovered
@@ -326,11 +327,11 @@ class DashboardModel:
             if stale != (topic in self._stale):
                 (self._stale.add if stale else self._stale.discard)(topic)
                 self._changed.add(topic)
-        views = [self.records[topic].view(now) for topic in sorted(self._changed)]
+        changed = [self.records[topic].view(now) for topic in sorted(self._changed)] if views else []
         removed = sorted(self._removed)
         self._changed.clear()
         self._removed.clear()
-        return views, removed
+        return changed, removed
 
     def snapshot(self, now):
         """Every battery, sorted by topic."""

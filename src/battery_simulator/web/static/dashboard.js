@@ -24,6 +24,11 @@ function ageText(seconds) {
   return (seconds / 3600).toFixed(1) + ' h ago';
 }
 
+function minutesAgo(time) {
+  const minutes = Math.round((serverNow() - time) / 60);
+  return minutes <= 0 ? 'now' : '-' + minutes + ' min';
+}
+
 function element(tag, className, text) {
   const node = document.createElement(tag);
   if (className) node.className = className;
@@ -185,7 +190,7 @@ function batteryPage() {
         plugins: {legend: {display: false}, tooltip: {enabled: true, intersect: false, mode: 'index',
           callbacks: {title: (items) => ageText(serverNow() - items[0].parsed.x)}}},
         scales: {
-          x: {type: 'linear', ticks: {maxTicksLimit: 7, callback: (value) => '-' + Math.round((serverNow() - value) / 60) + ' min'}},
+          x: {type: 'linear', ticks: {maxTicksLimit: 7, callback: minutesAgo}},
           y: field === 'percentage' ? {min: 0, max: 100} : {grace: '5%'},
         },
       },
