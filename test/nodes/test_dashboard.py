@@ -25,6 +25,16 @@ NAN_TOPIC = '/zz_nan/battery_status'   # sorts after the robots
 HISTORY_S = 10.0                       # ~history_s in test/dashboard.test
 
 
+WATCH_LEVEL = '''
+const [selector, level] = arguments;
+const field = document.querySelector(selector + ' [data-field="percentage"]');
+window.levelShownAt = null;
+new MutationObserver((changes, observer) => {
+  if (Math.abs(parseFloat(field.textContent) - level) < 0.15) { window.levelShownAt = Date.now(); observer.disconnect(); }
+}).observe(field, {childList: true, characterData: true, subtree: true});
+'''
+
+
 def topic_of(robot):
     return '/%s/battery_status' % robot
 
@@ -122,11 +132,15 @@ class TestDashboard(unittest.TestCase):
 
     def test_2_a_set_state_shows_within_1_s(self):
         for level in (55.5, 61.0):
+            # the page notes (wall clock, ms) when the text first shows the level: no polling in the figure
+            self.driver.execute_script(WATCH_LEVEL, card_selector(topic_of('robot2')), level)
             self.set_state('robot2', level)   # replies once battery_status has sent it
-            sent = time.monotonic()
-            self.wait(1.0, lambda d: abs(self.shown_level(topic_of('robot2')) - level) < 0.15,
-                      'robot2 at %g %% on the page within 1 s of battery_status' % level)
-            self.assertLess(time.monotonic() - sent, 1.0)
+            sent = time.time()
+            shown_ms = self.wait(5.0, lambda d: d.execute_script('return window.levelShownAt'),
+                                 'robot2 at %g %% on the page' % level)
+            rospy.loginfo('set_state %g %%: on the page %.0f ms after the service replied', level,
+                          shown_ms - 1000.0 * sent)
+            self.assertLess(shown_ms / 1000.0 - sent, 1.0, 'robot2 at %g %% within 1 s of battery_status' % level)
 
     def test_3_low_and_critical_are_marked(self):
         topic = topic_of('robot3')
