@@ -30,7 +30,10 @@ const [selector, level] = arguments;
 const field = document.querySelector(selector + ' [data-field="percentage"]');
 window.levelShownAt = null;
 new MutationObserver((changes, observer) => {
-  if (Math.abs(parseFloat(field.textContent) - level) < 0.15) { window.levelShownAt = Date.now(); observer.disconnect(); }
+  if (Math.abs(parseFloat(field.textContent) - level) < 0.15) {
+    window.levelShownAt = Date.now();
+    observer.disconnect();
+  }
 }).observe(field, {childList: true, characterData: true, subtree: true});
 '''
 
