@@ -4,6 +4,8 @@ Run through ``tools/benchmark.py --graph`` (needs the devel space sourced). It
 starts its own master on a free port, starts every launch file it measures as
 a process group of its own, and ends each by its pid.
 """
+import http.client
+import json
 import os
 import random
 import resource
@@ -382,6 +384,61 @@ def robot_latencies(namespace, repeats=10):
     return feedback, contact_delays(namespace)
 
 
+def page_in_chromium(url):
+    """A headless Chromium (Selenium) showing ``url``, as a person would leave it open."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    options = webdriver.ChromeOptions()
+    for argument in ('--headless=new', '--no-sandbox', '--disable-gpu', '--window-size=1280,800'):
+        options.add_argument(argument)
+    driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver'))
+    driver.get(url)
+    return driver
+
+
+def measure_dashboard(processes, rows, n=100):
+    """battery_dashboard with fleet.launch n:=100 at 1 Hz and the overview open in headless Chromium."""
+    port = free_port()
+    fleet = launch(processes, 'fleet.launch', n=n)
+    dashboard, driver = None, None
+    try:
+        master = rosgraph.Master('/graph_benchmark')
+        last_topic = '/robot%d/battery_status' % (n - 1)
+        wait_until(lambda: any(topic == last_topic for topic, _ in master.getPublishedTopics('/')), 120.0,
+                   'the fleet')   # two roslaunch starting at once race for /run_id: one after the other
+        dashboard = launch(processes, 'dashboard.launch', port=port)
+        url = 'http://127.0.0.1:%d/' % port
+        wait_until(lambda: time.sleep(0.2) or dashboard_batteries(port) == n, 120.0,
+                   'the dashboard showing %d batteries' % n)
+        driver = page_in_chromium(url)
+        wait_until(lambda: driver.execute_script("return document.querySelectorAll('[data-battery]').length") == n,
+                   60.0, '%d batteries on the page' % n)
+        pids = process_ids(['/battery_dashboard', '/battery_fleet'])
+        time.sleep(5.0)
+        cpu = cpu_percent(list(pids.values()), 20.0)
+        fresh = driver.execute_script("return document.querySelectorAll('[data-battery]:not(.stale)').length")
+        memory = rss_mb(pids['/battery_dashboard'])
+    finally:
+        if driver is not None:
+            driver.quit()
+        if dashboard is not None:
+            processes.stop(dashboard)
+        processes.stop(fleet)
+    rows.append(('battery_dashboard: %d batteries at 1 Hz, the page open (20 s)' % n,
+                 '%.1f %% of a core' % cpu[pids['/battery_dashboard']],
+                 '%.0f MB RSS, %d of %d fresh on the page; fleet host %.1f %%'
+                 % (memory, fresh, n, cpu[pids['/battery_fleet']]), '<= 10 %'))
+
+
+def dashboard_batteries(port):
+    try:
+        connection = http.client.HTTPConnection('127.0.0.1', port, timeout=5.0)
+        connection.request('GET', '/api/batteries')
+        return len(json.loads(connection.getresponse().read())['batteries'])
+    except (OSError, ValueError):
+        return -1
+
+
 def run(sections):
     """Start a master, run the named sections, return the table rows."""
     port = free_port()
@@ -402,4 +459,5 @@ def run(sections):
     return rows
 
 
-SECTIONS = (measure_goals, measure_contact, measure_cost_and_start, measure_prediction, measure_rates, measure_fleet)
+SECTIONS = (measure_goals, measure_contact, measure_cost_and_start, measure_prediction, measure_rates, measure_fleet,
+            measure_dashboard)

@@ -1,0 +1,5 @@
+#!/usr/bin/python3
+"""The live dashboard: every battery on the master in a browser (battery_dashboard)."""
+from battery_simulator.web.dashboard_node import main
+
+main()

@@ -1,0 +1,302 @@
+"""The dashboard's web server (tornado, no rospy): static pages, one websocket, a few JSON calls.
+
+Pages are static files (``static/``); Chart.js is the distribution's own
+(``/usr/share/javascript/chart.js``). The live channel ``/live`` sends every
+battery once, then, a few times a second, only the batteries that changed.
+Every request whose ``Host`` or ``Origin`` is not the dashboard's own address
+gets 403, so a web site in the same browser cannot read or drive it (DNS
+rebinding, cross-site requests). ``/api/control`` exists only with controls
+on, and calls nothing but set_state, set_charging and inject_fault with
+checked values.
+"""
+import json
+import math
+import os
+import socket
+import threading
+import time
+import urllib.parse
+
+import tornado.ioloop
+import tornado.web
+import tornado.websocket
+
+from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
+
+STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
+CHART_JS_DIR = '/usr/share/javascript/chart.js'
+PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
+SECURITY_HEADERS = {
+    'Content-Security-Policy': "default-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
+                               "frame-ancestors 'none'",
+    'X-Frame-Options': 'DENY',
+    'X-Content-Type-Options': 'nosniff',
+    'Referrer-Policy': 'no-referrer',
+}
+#: set_state's ranges (srv/SetState.srv); an empty field is NaN: left as it is
+SET_STATE_RANGES = {'percentage': (0.0, 100.0), 'temperature_c': (-60.0, 150.0), 'state_of_health': (0.0, 1.0)}
+CONTROL_ACTIONS = ('set_state', 'set_charging', 'inject_fault')
+
+
+# -- the checks (plain functions, unit-tested) -----------------------------------------
+
+def own_addresses(host, port):
+    """Every 'name:port' under which a browser may reach this dashboard.
+
+    127.0.0.1, localhost and [::1] always; the configured ~host; bound to every
+    interface (0.0.0.0 or ::), also this machine's names and addresses.
+    """
+    names = {'127.0.0.1', 'localhost', '[::1]', host if ':' not in host else '[%s]' % host}
+    if host in ('0.0.0.0', '::', ''):
+        names.update((socket.gethostname(), socket.getfqdn()))
+        try:
+            names.update(socket.gethostbyname_ex(socket.gethostname())[2])
+        except OSError:
+            pass
+    addresses = {'%s:%d' % (name.lower(), port) for name in names if name}
+    if port == 80:
+        addresses.update(name.lower() for name in names if name)
+    return addresses
+
+
+def origin_address(origin):
+    """'http://127.0.0.1:8090' -> '127.0.0.1:8090' (None for anything but http with a host)."""
+    parsed = urllib.parse.urlsplit(origin or '')
+    if parsed.scheme != 'http' or not parsed.netloc:
+        return None
+    return parsed.netloc.lower()
+
+
+def request_allowed(host_header, origin_header, addresses):
+    """True when Host is one of ``addresses`` and Origin, if the browser sent one, too."""
+    if (host_header or '').lower() not in addresses:
+        return False
+    return origin_header is None or origin_address(origin_header) in addresses
+
+
+def _number(value, name, low, high, blank_is_nan=False):
+    if blank_is_nan and (value is None or value == ''):
+        return math.nan
+    if isinstance(value, bool):
+        raise ValueError('%s must be a number' % name)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError('%s must be a number' % name) from None
+    if not (low <= number <= high):
+        raise ValueError('%s must be in [%g, %g], not %g' % (name, low, high, number))
+    return number
+
+
+def control_request(body):
+    """Check a control request from the page: (action, arguments), or ValueError with the reason.
+
+    {"action": "set_state", "percentage": 15, "temperature_c": "", "state_of_health": ""}
+    {"action": "set_charging", "charging": true}
+    {"action": "inject_fault", "fault": "overheat", "active": true}
+    """
+    if not isinstance(body, dict):
+        raise ValueError('a JSON object is expected')
+    action = body.get('action')
+    if action == 'set_state':
+        arguments = {name: _number(body.get(name), name, low, high, blank_is_nan=True)
+                     for name, (low, high) in SET_STATE_RANGES.items()}
+        if arguments['state_of_health'] == 0.0:
+            raise ValueError('state_of_health must be in (0, 1]')
+        if all(math.isnan(value) for value in arguments.values()):
+            raise ValueError('set_state needs at least one value')
+        return action, arguments
+    if action == 'set_charging':
+        if not isinstance(body.get('charging'), bool):
+            raise ValueError('charging must be true or false')
+        return action, {'charging': body['charging']}
+    if action == 'inject_fault':
+        if body.get('fault') not in FAULTS:
+            raise ValueError('fault must be one of %s' % ', '.join(FAULTS))
+        if not isinstance(body.get('active'), bool):
+            raise ValueError('active must be true or false')
+        return action, {'fault': body['fault'], 'active': body['active']}
+    raise ValueError('action must be one of %s' % ', '.join(CONTROL_ACTIONS))
+
+
+def to_json(data):
+    """JSON that a browser parses: NaN and infinities (JSON has none) become null."""
+    try:
+        return json.dumps(data, allow_nan=False, separators=(',', ':'))
+    except ValueError:
+        return json.dumps(_without_nan(data), allow_nan=False, separators=(',', ':'))
+
+
+def _without_nan(data):
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {key: _without_nan(value) for key, value in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [_without_nan(value) for value in data]
+    return data
+
+
+# -- the shared state ---------------------------------------------------------------------
+
+class Hub:
+    """The model behind one lock (ROS callbacks write, the web thread reads), and the open pages."""
+
+    def __init__(self, history_s, allow_control, call_service=None, clock=time.time):
+        self.lock = threading.Lock()
+        self.model = DashboardModel(history_s)
+        self.allow_control = allow_control
+        self.call_service = call_service   # (battery topic, action, arguments) -> (success, message)
+        self.clock = clock
+        self.pages = set()
+
+    def push(self):
+        """Send what changed to every open page (called every PUSH_PERIOD_S on the web thread)."""
+        with self.lock:
+            now = self.clock()
+            changed, removed = self.model.tick(now, views=bool(self.pages))
+        if self.pages and (changed or removed):
+            message = to_json({'type': 'update', 'now': now, 'batteries': changed, 'removed': removed})
+            for page in list(self.pages):
+                page.send(message)
+
+    def snapshot_message(self):
+        with self.lock:
+            now = self.clock()
+            batteries = self.model.snapshot(now)
+        return to_json({'type': 'snapshot', 'now': now, 'history_s': self.model.history_s,
+                        'allow_control': self.allow_control, 'batteries': batteries})
+
+
+# -- the handlers -------------------------------------------------------------------------
+
+class _Guard:
+    """403 unless Host (and Origin, if sent) is the dashboard's own address; security headers."""
+
+    def prepare(self):
+        if not request_allowed(self.request.headers.get('Host'), self.request.headers.get('Origin'),
+                               self.settings['own_addresses']):
+            raise tornado.web.HTTPError(403, 'Host or Origin is not this dashboard')
+
+    def set_default_headers(self):
+        for name, value in SECURITY_HEADERS.items():
+            self.set_header(name, value)
+
+
+class PageHandler(_Guard, tornado.web.RequestHandler):
+    def initialize(self, page):
+        self.page = page
+
+    def get(self):
+        self.set_header('Content-Type', 'text/html; charset=utf-8')
+        self.set_header('Cache-Control', 'no-cache')
+        with open(os.path.join(STATIC_DIR, self.page), 'rb') as stream:
+            self.write(stream.read())
+
+
+class GuardedStaticHandler(_Guard, tornado.web.StaticFileHandler):
+    def set_default_headers(self):
+        _Guard.set_default_headers(self)
+
+    def set_extra_headers(self, path):
+        self.set_header('Cache-Control', 'no-cache')   # a new version of the package shows at once
+
+
+class ApiHandler(_Guard, tornado.web.RequestHandler):
+    def send_json(self, data, status=200):
+        self.set_status(status)
+        self.set_header('Content-Type', 'application/json')
+        self.set_header('Cache-Control', 'no-store')
+        self.finish(to_json(data))
+
+
+class BatteriesHandler(ApiHandler):
+    def get(self):
+        self.set_header('Content-Type', 'application/json')
+        self.finish(self.settings['hub'].snapshot_message())
+
+
+class HistoryHandler(ApiHandler):
+    def get(self):
+        hub = self.settings['hub']
+        topic = self.get_query_argument('topic', '')
+        with hub.lock:
+            history = hub.model.history(topic, hub.clock())
+        if history is None:
+            self.send_json({'error': 'no battery %s' % topic}, 404)
+        else:
+            self.send_json({'topic': topic, 'history_s': hub.model.history_s, 'now': hub.clock(),
+                            'history': history})
+
+
+class ControlHandler(ApiHandler):
+    async def post(self):
+        hub = self.settings['hub']
+        if not hub.allow_control or hub.call_service is None:
+            self.send_json({'success': False, 'message': 'controls are off (~allow_control false)'}, 403)
+            return
+        if not self.request.headers.get('Content-Type', '').startswith('application/json'):
+            self.send_json({'success': False, 'message': 'Content-Type must be application/json'}, 415)
+            return
+        try:
+            body = json.loads(self.request.body or b'null')
+            action, arguments = control_request(body)
+        except ValueError as error:
+            self.send_json({'success': False, 'message': str(error)}, 400)
+            return
+        topic = body.get('topic')
+        with hub.lock:
+            record = hub.model.records.get(topic)
+            has_controls = record is not None and record.has_controls
+        if not has_controls:
+            self.send_json({'success': False, 'message': 'no simulated battery %s' % topic}, 404)
+            return
+        success, message = await tornado.ioloop.IOLoop.current().run_in_executor(
+            None, hub.call_service, topic, action, arguments)
+        self.send_json({'success': success, 'message': message}, 200 if success else 502)
+
+
+class LiveSocket(_Guard, tornado.websocket.WebSocketHandler):
+    """/live: a snapshot, then the changes. Nothing the page sends is read."""
+
+    def check_origin(self, origin):
+        return origin_address(origin) in self.settings['own_addresses']
+
+    def open(self):
+        hub = self.settings['hub']
+        self.set_nodelay(True)
+        self.write_message(hub.snapshot_message())
+        hub.pages.add(self)
+
+    def send(self, message):
+        try:
+            self.write_message(message)
+        except tornado.websocket.WebSocketClosedError:
+            self.settings['hub'].pages.discard(self)
+
+    def on_message(self, message):
+        pass
+
+    def on_close(self):
+        self.settings['hub'].pages.discard(self)
+
+
+def make_app(hub, host, port):
+    """The tornado application: pages, static files, Chart.js, the API and /live."""
+    return tornado.web.Application([
+        (r'/', PageHandler, {'page': 'index.html'}),
+        (r'/battery', PageHandler, {'page': 'battery.html'}),
+        (r'/static/(.*)', GuardedStaticHandler, {'path': STATIC_DIR}),
+        (r'/javascript/chart\.js/(.*)', GuardedStaticHandler, {'path': CHART_JS_DIR}),
+        (r'/api/batteries', BatteriesHandler),
+        (r'/api/history', HistoryHandler),
+        (r'/api/control', ControlHandler),
+        (r'/live', LiveSocket),
+    ], hub=hub, own_addresses=own_addresses(host, port), websocket_ping_interval=20)
+
+
+def start_pushing(hub):
+    """Push the changes every PUSH_PERIOD_S on the current IOLoop."""
+    pusher = tornado.ioloop.PeriodicCallback(hub.push, PUSH_PERIOD_S * 1000.0)
+    pusher.start()
+    return pusher

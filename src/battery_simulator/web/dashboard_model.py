@@ -1,0 +1,350 @@
+"""What the dashboard knows about every battery, without ROS (no rospy, no messages).
+
+The node hands in plain values (a BatteryState as a dict of numbers, a Bool, a
+few fields of the simulator's state) with the wall time they arrived; the web
+app reads formatted records and histories out. Every rule the page shows lives
+here: topic discovery, stale, low / critical, time remaining, the text of each
+field.
+"""
+import bisect
+import collections
+import math
+
+BATTERY_TYPE = 'sensor_msgs/BatteryState'
+BOOL_TYPE = 'std_msgs/Bool'
+SIM_STATE_TYPE = 'battery_simulator/BatterySimState'
+FLEET_STATE_TYPE = 'battery_simulator/BatteryFleetState'
+
+STALE_MIN_S = 3.0        # stale after no message for max(this, STALE_PERIODS periods)
+STALE_PERIODS = 3
+LOW_FRACTION = 0.20      # without a battery_low / battery_critical topic
+CRITICAL_FRACTION = 0.05
+HISTORY_POINTS = 1200    # at most this many chart points per battery over ~history_s
+PERIOD_SAMPLES = 8       # arrival intervals the period estimate takes the median of
+
+#: sensor_msgs/BatteryState.power_supply_status -> the page's status
+SUPPLY_STATUS = {1: 'Charging', 2: 'Discharging', 3: 'Not charging', 4: 'Full'}
+#: BatterySimState.charging_state -> the page's status (the simulator knows Empty)
+SIM_CHARGING_STATE = {'Charging': 'Charging', 'Discharging': 'Discharging', 'Full': 'Full',
+                      'Not Charging': 'Not charging', 'Empty': 'Empty'}
+#: sensor_msgs/BatteryState.power_supply_health
+SUPPLY_HEALTH = {1: 'Good', 2: 'Overheat', 3: 'Dead', 4: 'Overvoltage', 5: 'Unspecified failure', 6: 'Cold',
+                 7: 'Watchdog timer expired', 8: 'Safety timer expired'}
+#: the numbers a BatteryState gives (pack units: V, A, degC, Ah; percentage 0..1)
+BATTERY_FIELDS = ('percentage', 'voltage', 'current', 'temperature', 'charge', 'capacity', 'design_capacity')
+CHART_FIELDS = ('percentage', 'voltage', 'current', 'temperature')
+FAULTS = ('charger_fault', 'overheat', 'sensor_dropout', 'measurement_noise')
+
+
+# -- text ----------------------------------------------------------------------
+
+def finite(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def number_text(value, digits, unit):
+    """'12.31 V'; '-' for NaN, infinity or nothing."""
+    return '%.*f %s' % (digits, value, unit) if finite(value) else '-'
+
+
+def percentage_text(fraction):
+    """BatteryState.percentage (0..1) as '63.2 %'."""
+    return number_text(100.0 * fraction if finite(fraction) else None, 1, '%')
+
+
+def duration_text(seconds):
+    """'2 h 05 min', '7 min', '40 s'; '-' when unknown."""
+    if not finite(seconds) or seconds < 0:
+        return '-'
+    if seconds < 60:
+        return '%d s' % seconds
+    minutes = int(round(seconds / 60.0))
+    if minutes < 60:
+        return '%d min' % minutes
+    return '%d h %02d min' % divmod(minutes, 60)
+
+
+def json_number(value):
+    """A number JSON can carry (NaN and infinities become null)."""
+    return float(value) if finite(value) else None
+
+
+# -- rules -----------------------------------------------------------------------
+
+def stale_after_s(period_s):
+    """No message for this long: stale (3 s or 3 periods, whichever is longer)."""
+    return max(STALE_MIN_S, STALE_PERIODS * period_s) if finite(period_s) else STALE_MIN_S
+
+
+def level_flags(percentage, low_topic, critical_topic):
+    """(low, critical): the battery_low / battery_critical topics where they said something,
+    else the level below 20 % / 5 %."""
+    known = finite(percentage)
+    low = low_topic if low_topic is not None else (known and percentage < LOW_FRACTION)
+    critical = critical_topic if critical_topic is not None else (known and percentage < CRITICAL_FRACTION)
+    return bool(low), bool(critical)
+
+
+def status_name(power_supply_status, sim_charging_state=None, percentage=None):
+    """Charging, Discharging, Full, Not charging or Empty ('-' when the publisher does not know).
+
+    sensor_msgs/BatteryState has no Empty: the simulator's state says it; from a
+    BatteryState alone, a pack not charging at 0 % is Empty."""
+    if sim_charging_state in SIM_CHARGING_STATE:
+        return SIM_CHARGING_STATE[sim_charging_state]
+    name = SUPPLY_STATUS.get(power_supply_status, '-')
+    if name == 'Not charging' and finite(percentage) and percentage <= 0.0:
+        return 'Empty'
+    return name
+
+
+def time_remaining_s(values, status):
+    """To empty while discharging, to full while charging, at the present current (as the
+    simulator computes it); None when the BatteryState lacks charge, capacity or current."""
+    charge, capacity, current = values.get('charge'), values.get('capacity'), values.get('current')
+    if not (finite(charge) and finite(current)):
+        return None
+    if status == 'Discharging' and current < 0.0:
+        return charge / -current * 3600.0
+    if status == 'Charging' and current > 0.0 and finite(capacity) and capacity >= charge:
+        return (capacity - charge) / current * 3600.0
+    return None
+
+
+def discover(published):
+    """The batteries in the master's [(topic, type)] list, and what to subscribe for each.
+
+    Returns {battery topic: {'low': topic, 'critical': topic, 'state': topic}} (only the
+    extras that exist) and {fleet state topic: namespace of its host}. A battery's extras
+    live in its namespace (``<ns>/battery_low``, ``<ns>/battery_critical``,
+    ``<ns>/battery_simulator/state``); they belong to it when it is the namespace's
+    ``battery_status`` or the namespace's only battery.
+    """
+    types = {}
+    for topic, topic_type in published:
+        types[topic] = topic_type
+    batteries = sorted(topic for topic, topic_type in types.items() if topic_type == BATTERY_TYPE)
+    per_namespace = collections.Counter(namespace_of(topic) for topic in batteries)
+    found = {}
+    for topic in batteries:
+        namespace = namespace_of(topic)
+        extras = {}
+        if topic.endswith('/battery_status') or per_namespace[namespace] == 1:
+            for key, name, wanted in (('low', 'battery_low', BOOL_TYPE), ('critical', 'battery_critical', BOOL_TYPE),
+                                      ('state', 'battery_simulator/state', SIM_STATE_TYPE)):
+                extra = namespace.rstrip('/') + '/' + name
+                if types.get(extra) == wanted:
+                    extras[key] = extra
+        found[topic] = extras
+    fleets = {topic: namespace_of(namespace_of(topic).rstrip('/'))
+              for topic, topic_type in types.items() if topic_type == FLEET_STATE_TYPE}
+    return found, fleets
+
+
+def namespace_of(name):
+    """'/robot3/battery_status' -> '/robot3/'; '/battery_status' -> '/'."""
+    return name[:name.rstrip('/').rfind('/') + 1] or '/'
+
+
+def fleet_battery_topic(host_namespace, robot_name):
+    """The battery_status topic of robot ``robot_name`` of a fleet host in ``host_namespace``."""
+    return host_namespace + robot_name.strip('/') + '/battery_status'
+
+
+# -- one battery -------------------------------------------------------------------
+
+class BatteryRecord:
+    """One battery topic: its latest values, extras, arrival times and history."""
+
+    def __init__(self, topic, now):
+        self.topic = topic
+        self.values = {}               # BATTERY_FIELDS -> float (NaN as given)
+        self.power_supply_status = 0
+        self.power_supply_health = 0
+        self.location = ''
+        self.serial_number = ''
+        self.low_topic = None          # what battery_low / battery_critical last said (None: no word)
+        self.critical_topic = None
+        self.sim = {}                  # from battery_simulator/state: charging_state, faults, ...
+        self.host = ''                 # the fleet host that serves it, if any
+        self.has_controls = False      # the simulator's services exist in its namespace
+        self.discovered = now
+        self.last_message = None       # wall time of the latest BatteryState
+        self.messages = 0
+        self._intervals = collections.deque(maxlen=PERIOD_SAMPLES)
+        self.history = collections.deque()   # (time, percentage %, voltage, current, temperature)
+
+    def period_s(self):
+        """The median interval between messages (None until two arrived)."""
+        if not self._intervals:
+            return None
+        ordered = sorted(self._intervals)
+        return ordered[len(ordered) // 2]
+
+    def stale(self, now):
+        last = self.last_message if self.last_message is not None else self.discovered
+        return now - last >= stale_after_s(self.period_s())
+
+    def on_battery(self, values, now, history_step_s):
+        if self.last_message is not None and now > self.last_message:
+            self._intervals.append(now - self.last_message)
+        self.last_message = now
+        self.messages += 1
+        self.power_supply_status = values.pop('power_supply_status', 0)
+        self.power_supply_health = values.pop('power_supply_health', 0)
+        self.location = values.pop('location', '')
+        self.serial_number = values.pop('serial_number', '')
+        self.values = values
+        if not self.history or now - self.history[-1][0] >= history_step_s:
+            percentage = values.get('percentage')
+            self.history.append((now, 100.0 * percentage if finite(percentage) else None,
+                                 json_number(values.get('voltage')), json_number(values.get('current')),
+                                 json_number(values.get('temperature'))))
+
+    def trim(self, now, history_s):
+        while self.history and self.history[0][0] < now - history_s:
+            self.history.popleft()
+
+    def status(self):
+        return status_name(self.power_supply_status, self.sim.get('charging_state'), self.values.get('percentage'))
+
+    def remaining_s(self, status):
+        """The simulator's own figure where it gives one, else from charge, capacity and current."""
+        if 'time_remaining_s' in self.sim:
+            return self.sim['time_remaining_s'] if finite(self.sim['time_remaining_s']) else None
+        return time_remaining_s(self.values, status)
+
+    def view(self, now):
+        """What the page shows: text per data-field, classes, raw numbers, extras."""
+        values = self.values
+        status = self.status()
+        low, critical = level_flags(values.get('percentage'), self.low_topic, self.critical_topic)
+        remaining = self.remaining_s(status)
+        percentage = values.get('percentage')
+        return {
+            'topic': self.topic,
+            'name': self.topic.strip('/'),
+            'fields': {
+                'percentage': percentage_text(percentage),
+                'status': status,
+                'voltage': number_text(values.get('voltage'), 2, 'V'),
+                'current': number_text(values.get('current'), 2, 'A'),
+                'temperature': number_text(values.get('temperature'), 1, '°C'),
+                'time_remaining': duration_text(remaining),
+                'charge': number_text(values.get('charge'), 2, 'Ah'),
+                'capacity': number_text(values.get('capacity'), 2, 'Ah'),
+                'health': SUPPLY_HEALTH.get(self.power_supply_health, '-'),
+            },
+            'level': json_number(100.0 * percentage) if finite(percentage) else None,
+            'values': {field: json_number(values.get(field)) for field in ('voltage', 'current', 'temperature')},
+            'low': low,
+            'critical': critical,
+            'stale': self.stale(now),
+            'last_message': self.last_message,
+            'period_s': self.period_s(),
+            'host': self.host,
+            'location': self.location,
+            'serial_number': self.serial_number,
+            'sim': {key: (json_number(value) if isinstance(value, float) else value)
+                    for key, value in self.sim.items()},
+            'controls': self.has_controls,
+        }
+
+
+# -- every battery --------------------------------------------------------------------
+
+class DashboardModel:
+    """Every battery the dashboard shows. Not thread-safe: the node holds one lock around it."""
+
+    def __init__(self, history_s):
+        self.history_s = history_s
+        self.history_step_s = history_s / HISTORY_POINTS
+        self.records = {}
+        self._changed = set()
+        self._removed = set()
+        self._stale = set()
+
+    def _record(self, topic, now, changed=True):
+        record = self.records.get(topic)
+        if record is None:
+            record = self.records[topic] = BatteryRecord(topic, now)
+            self._removed.discard(topic)
+            changed = True
+        if changed:
+            self._changed.add(topic)
+        return record
+
+    def add(self, topic, now, has_controls=False):
+        """A battery topic found on the master."""
+        record = self._record(topic, now, changed=False)
+        if record.has_controls != has_controls:
+            record.has_controls = has_controls
+            self._changed.add(topic)
+
+    def on_battery(self, topic, values, now):
+        """A BatteryState as a dict: BATTERY_FIELDS, power_supply_status/health, location, serial_number."""
+        self._record(topic, now).on_battery(dict(values), now, self.history_step_s)
+
+    def on_level_topic(self, topic, which, active, now):
+        """battery_low (which='low') or battery_critical ('critical') of the battery ``topic``."""
+        setattr(self._record(topic, now), which + '_topic', bool(active))
+
+    def on_sim_state(self, topic, sim, now):
+        """The simulator's extras: charging_state, time_remaining_s, active_faults, cut_off, ...
+
+        They come with every model update; the page hears of them with the next BatteryState
+        unless the state, the faults or the cut-off changed."""
+        record = self._record(topic, now, changed=False)
+        if any(record.sim.get(key) != sim.get(key) for key in ('charging_state', 'active_faults', 'cut_off')):
+            self._changed.add(topic)
+        record.sim = sim
+
+    def on_fleet(self, topic, host, values, now):
+        """One battery of a fleet host's states: names its host; gives a first value before its own topic."""
+        record = self._record(topic, now, changed=False)
+        if record.host != host:
+            record.host = host
+            self._changed.add(topic)
+        if record.last_message is None:
+            record.on_battery(dict(values), now, self.history_step_s)
+            self._changed.add(topic)
+
+    def tick(self, now, views=True):
+        """Trim histories, drop batteries silent for ~history_s, find stale changes.
+
+        Returns (views of changed batteries, removed topics) since the last tick (no views,
+        only the removed topics, when ``views`` is false: nobody is looking)."""
+        for topic, record in list(self.records.items()):
+            record.trim(now, self.history_s)
+            last = record.last_message if record.last_message is not None else record.discovered
+            if now - last > self.history_s:
+                del self.records[topic]
+                self._changed.discard(topic)
+                self._removed.add(topic)
+                self._stale.discard(topic)
+                continue
+            stale = record.stale(now)
+            if stale != (topic in self._stale):
+                (self._stale.add if stale else self._stale.discard)(topic)
+                self._changed.add(topic)
+        changed = [self.records[topic].view(now) for topic in sorted(self._changed)] if views else []
+        removed = sorted(self._removed)
+        self._changed.clear()
+        self._removed.clear()
+        return changed, removed
+
+    def snapshot(self, now):
+        """Every battery, sorted by topic."""
+        return [self.records[topic].view(now) for topic in sorted(self.records)]
+
+    def history(self, topic, now):
+        """{'t': [...], 'percentage': [...], ...} over the last ~history_s; None for an unknown topic."""
+        record = self.records.get(topic)
+        if record is None:
+            return None
+        start = bisect.bisect_left([point[0] for point in record.history], now - self.history_s)
+        points = list(record.history)[start:]
+        series = {'t': [point[0] for point in points]}
+        for index, field in enumerate(CHART_FIELDS, start=1):
+            series[field] = [point[index] for point in points]
+        return series

@@ -1,0 +1,291 @@
+"""The dashboard without ROS: topic discovery, the stale and low/critical rules, the text of
+each field, histories, and the web app's Host/Origin check and control validation."""
+import json
+import math
+
+import pytest
+
+from battery_simulator.web import dashboard_model as model
+from battery_simulator.web.dashboard_model import DashboardModel
+
+tornado_testing = pytest.importorskip('tornado.testing')
+from battery_simulator.web import dashboard_app as app  # noqa: E402 (needs tornado)
+
+NAN = math.nan
+TOPIC = '/robot3/battery_status'
+
+
+def battery(percentage=0.632, voltage=11.5, current=-1.5, temperature=25.0, charge=1.9, capacity=3.0,
+            status=2, health=1):
+    return dict(percentage=percentage, voltage=voltage, current=current, temperature=temperature, charge=charge,
+                capacity=capacity, design_capacity=3.0, power_supply_status=status, power_supply_health=health,
+                location='base', serial_number='S1')
+
+
+# -- discovery ---------------------------------------------------------------------
+
+PUBLISHED = [
+    ('/robot0/battery_status', model.BATTERY_TYPE),
+    ('/robot0/battery_low', model.BOOL_TYPE),
+    ('/robot0/battery_critical', model.BOOL_TYPE),
+    ('/robot0/battery_simulator/state', model.SIM_STATE_TYPE),
+    ('/robot1/battery_status', model.BATTERY_TYPE),
+    ('/robot1/battery_low', 'std_msgs/String'),          # not a Bool: not its low level
+    ('/real/bms', model.BATTERY_TYPE),                   # a driver's own name, alone in its namespace
+    ('/real/battery_low', model.BOOL_TYPE),
+    ('/arm/left', model.BATTERY_TYPE),                   # two packs in one namespace: extras belong to neither
+    ('/arm/right', model.BATTERY_TYPE),
+    ('/arm/battery_low', model.BOOL_TYPE),
+    ('/battery_fleet/states', model.FLEET_STATE_TYPE),
+    ('/site/battery_fleet_1/states', model.FLEET_STATE_TYPE),
+    ('/robot0/odom', 'nav_msgs/Odometry'),
+    ('/rosout', 'rosgraph_msgs/Log'),
+]
+
+
+def test_discovery_finds_every_battery_state_topic_and_the_extras_beside_it():
+    batteries, fleets = model.discover(PUBLISHED)
+    assert sorted(batteries) == ['/arm/left', '/arm/right', '/real/bms', '/robot0/battery_status',
+                                 '/robot1/battery_status']
+    assert batteries['/robot0/battery_status'] == {'low': '/robot0/battery_low', 'critical': '/robot0/battery_critical',
+                                                   'state': '/robot0/battery_simulator/state'}
+    assert batteries['/robot1/battery_status'] == {}
+    assert batteries['/real/bms'] == {'low': '/real/battery_low'}
+    assert batteries['/arm/left'] == batteries['/arm/right'] == {}
+    assert fleets == {'/battery_fleet/states': '/', '/site/battery_fleet_1/states': '/site/'}
+    assert model.fleet_battery_topic('/site/', 'robot7') == '/site/robot7/battery_status'
+    assert model.discover([]) == ({}, {})
+
+
+def test_namespace_of():
+    assert model.namespace_of('/robot3/battery_status') == '/robot3/'
+    assert model.namespace_of('/battery_status') == '/'
+    assert model.namespace_of('/a/b/c') == '/a/b/'
+
+
+# -- rules and text ------------------------------------------------------------------
+
+def test_stale_after_three_seconds_or_three_periods_whichever_is_longer():
+    assert model.stale_after_s(None) == 3.0
+    assert model.stale_after_s(0.1) == 3.0
+    assert model.stale_after_s(1.0) == 3.0
+    assert model.stale_after_s(5.0) == 15.0
+    dashboard = DashboardModel(history_s=600)
+    for t in (0.0, 5.0, 10.0):   # a battery publishing every 5 s
+        dashboard.on_battery(TOPIC, battery(), t)
+    record = dashboard.records[TOPIC]
+    assert not record.stale(24.9) and record.stale(25.0)
+    fast = '/fast/battery_status'
+    for k in range(11):          # 10 Hz: 3 s after the last (at 101 s)
+        dashboard.on_battery(fast, battery(), 100.0 + 0.1 * k)
+    assert not dashboard.records[fast].stale(103.9) and dashboard.records[fast].stale(104.01)
+
+
+def test_a_battery_goes_stale_then_leaves_after_history_s_and_the_page_hears_both():
+    dashboard = DashboardModel(history_s=60)
+    dashboard.add(TOPIC, 0.0)
+    dashboard.on_battery(TOPIC, battery(), 0.0)
+    dashboard.on_battery(TOPIC, battery(), 1.0)
+    changed, removed = dashboard.tick(1.5)
+    assert [view['topic'] for view in changed] == [TOPIC] and not changed[0]['stale'] and removed == []
+    assert dashboard.tick(2.0) == ([], [])              # nothing new: nothing sent
+    changed, removed = dashboard.tick(4.5)
+    assert [view['stale'] for view in changed] == [True]
+    assert dashboard.tick(30.0) == ([], [])
+    assert dashboard.tick(61.5) == ([], [TOPIC])
+    assert TOPIC not in dashboard.records and dashboard.snapshot(62.0) == []
+    dashboard.on_battery(TOPIC, battery(), 70.0)        # back: shown again, not stale
+    assert [(view['topic'], view['stale']) for view in dashboard.tick(70.1)[0]] == [(TOPIC, False)]
+
+
+def test_nan_fields_show_a_dash():
+    assert model.percentage_text(NAN) == '-'
+    assert model.number_text(NAN, 2, 'V') == '-'
+    assert model.number_text(math.inf, 2, 'V') == '-'
+    assert model.number_text(None, 2, 'V') == '-'
+    assert model.duration_text(NAN) == '-' and model.duration_text(None) == '-'
+    dashboard = DashboardModel(history_s=600)
+    dashboard.on_battery(TOPIC, battery(percentage=NAN, voltage=NAN, current=NAN, temperature=NAN, charge=NAN,
+                                        capacity=NAN, status=0, health=0), 0.0)
+    view = dashboard.snapshot(0.5)[0]
+    assert set(view['fields'].values()) == {'-'}
+    assert view['level'] is None and not view['low'] and not view['critical']
+    text = app.to_json(view)
+    assert 'NaN' not in text and json.loads(text)['values'] == {'voltage': None, 'current': None,
+                                                                'temperature': None}
+    assert app.to_json({'a': [NAN, 1.0, {'b': math.inf}]}) == '{"a":[null,1.0,{"b":null}]}'
+
+
+def test_field_text():
+    dashboard = DashboardModel(history_s=600)
+    dashboard.on_battery(TOPIC, battery(), 0.0)
+    fields = dashboard.snapshot(0.1)[0]['fields']
+    assert fields['percentage'] == '63.2 %'
+    assert fields['voltage'] == '11.50 V' and fields['current'] == '-1.50 A' and fields['temperature'] == '25.0 °C'
+    assert fields['status'] == 'Discharging' and fields['time_remaining'] == '1 h 16 min'   # 1.9 Ah at 1.5 A
+    assert model.duration_text(40) == '40 s' and model.duration_text(420) == '7 min'
+    assert model.duration_text(7500) == '2 h 05 min'
+
+
+def test_status_names():
+    assert [model.status_name(s) for s in (0, 1, 2, 3, 4)] == ['-', 'Charging', 'Discharging', 'Not charging',
+                                                                 'Full']
+    assert model.status_name(3, percentage=0.0) == 'Empty'
+    assert model.status_name(3, 'Empty', 0.02) == 'Empty'                # the simulator knows
+    assert model.status_name(3, 'Not Charging', 0.5) == 'Not charging'
+
+
+def test_time_remaining_to_empty_or_full_at_the_present_current():
+    assert model.time_remaining_s({'charge': 1.5, 'capacity': 3.0, 'current': -1.5}, 'Discharging') == 3600.0
+    assert model.time_remaining_s({'charge': 1.5, 'capacity': 3.0, 'current': 3.0}, 'Charging') == 1800.0
+    assert model.time_remaining_s({'charge': 1.5, 'capacity': 3.0, 'current': 0.0}, 'Discharging') is None
+    assert model.time_remaining_s({'charge': NAN, 'capacity': 3.0, 'current': -1.0}, 'Discharging') is None
+    assert model.time_remaining_s({'charge': 3.0, 'capacity': 3.0, 'current': 0.0}, 'Full') is None
+    dashboard = DashboardModel(history_s=600)
+    dashboard.on_battery(TOPIC, battery(), 0.0)
+    dashboard.on_sim_state(TOPIC, {'charging_state': 'Discharging', 'time_remaining_s': 600.0}, 0.0)
+    assert dashboard.snapshot(0.1)[0]['fields']['time_remaining'] == '10 min'   # the simulator's own figure
+    dashboard.on_sim_state(TOPIC, {'charging_state': 'Full', 'time_remaining_s': NAN}, 0.0)
+    assert dashboard.snapshot(0.1)[0]['fields']['time_remaining'] == '-'
+
+
+def test_low_and_critical_from_the_topics_where_they_exist_else_20_and_5_percent():
+    assert model.level_flags(0.25, None, None) == (False, False)
+    assert model.level_flags(0.15, None, None) == (True, False)
+    assert model.level_flags(0.03, None, None) == (True, True)
+    assert model.level_flags(NAN, None, None) == (False, False)
+    assert model.level_flags(0.22, True, False) == (True, False)     # hysteresis: the topic still says low
+    assert model.level_flags(0.15, False, False) == (False, False)   # a publisher with other thresholds
+    dashboard = DashboardModel(history_s=600)
+    dashboard.on_battery(TOPIC, battery(percentage=0.5), 0.0)
+    dashboard.on_level_topic(TOPIC, 'critical', True, 0.0)
+    view = dashboard.snapshot(0.1)[0]
+    assert view['critical'] and not view['low']
+
+
+def test_history_is_trimmed_to_history_s_and_thinned_to_a_bounded_number_of_points():
+    dashboard = DashboardModel(history_s=100)
+    for k in range(3000):   # 20 Hz for 150 s
+        dashboard.on_battery(TOPIC, battery(percentage=0.5 + k * 1e-5), k * 0.05)
+    dashboard.tick(150.0)
+    history = dashboard.history(TOPIC, 150.0)
+    assert history['t'][0] >= 50.0 and history['t'][-1] >= 149.0
+    assert len(history['t']) <= model.HISTORY_POINTS + 1
+    assert len(history['percentage']) == len(history['voltage']) == len(history['t'])
+    assert history['percentage'][-1] == pytest.approx(100.0 * (0.5 + 2999e-5), abs=0.1)
+    assert dashboard.history('/nobody', 150.0) is None
+
+
+def test_a_fleet_host_names_the_host_and_gives_a_first_value():
+    dashboard = DashboardModel(history_s=600)
+    dashboard.on_fleet(TOPIC, '/battery_fleet', battery(percentage=0.4), 0.0)
+    view = dashboard.snapshot(0.0)[0]
+    assert view['host'] == '/battery_fleet' and view['fields']['percentage'] == '40.0 %'
+    dashboard.on_battery(TOPIC, battery(percentage=0.41), 0.5)
+    dashboard.on_fleet(TOPIC, '/battery_fleet', battery(percentage=0.2), 1.0)   # its own topic rules
+    assert dashboard.snapshot(1.0)[0]['fields']['percentage'] == '41.0 %'
+
+
+def test_snapshot_is_sorted_by_topic():
+    dashboard = DashboardModel(history_s=600)
+    for topic in ('/robot2/battery_status', '/robot10/battery_status', '/alpha/battery_status'):
+        dashboard.on_battery(topic, battery(), 0.0)
+    assert [view['topic'] for view in dashboard.snapshot(0.0)] == sorted(
+        ['/robot2/battery_status', '/robot10/battery_status', '/alpha/battery_status'])
+
+
+# -- the web app's checks -----------------------------------------------------------
+
+def test_only_the_dashboards_own_host_and_origin_are_allowed():
+    own = app.own_addresses('127.0.0.1', 8090)
+    assert {'127.0.0.1:8090', 'localhost:8090', '[::1]:8090'} <= own
+    assert app.request_allowed('127.0.0.1:8090', None, own)
+    assert app.request_allowed('LOCALHOST:8090', 'http://localhost:8090', own)
+    assert not app.request_allowed('evil.example:8090', None, own)          # DNS rebinding
+    assert not app.request_allowed('127.0.0.1:8091', None, own)
+    assert not app.request_allowed('127.0.0.1', None, own)
+    assert not app.request_allowed(None, None, own)
+    assert not app.request_allowed('127.0.0.1:8090', 'http://evil.example', own)   # another site's page
+    assert not app.request_allowed('127.0.0.1:8090', 'null', own)
+    assert not app.request_allowed('127.0.0.1:8090', 'https://127.0.0.1:8090', own)
+    assert 'robot.lan:8090' in app.own_addresses('robot.lan', 8090)
+    assert 'evil.example:8090' not in app.own_addresses('0.0.0.0', 8090)
+
+
+def test_control_requests_are_checked_before_any_call():
+    action, arguments = app.control_request({'action': 'set_state', 'percentage': '15', 'temperature_c': ''})
+    assert action == 'set_state' and arguments['percentage'] == 15.0 and math.isnan(arguments['temperature_c'])
+    assert app.control_request({'action': 'set_charging', 'charging': True}) == ('set_charging', {'charging': True})
+    assert app.control_request({'action': 'inject_fault', 'fault': 'overheat', 'active': False}) == (
+        'inject_fault', {'fault': 'overheat', 'active': False})
+    for bad in ({'action': 'set_state', 'percentage': 101}, {'action': 'set_state', 'percentage': -1},
+                {'action': 'set_state', 'percentage': 'NaN'}, {'action': 'set_state', 'percentage': 'junk'},
+                {'action': 'set_state', 'percentage': True}, {'action': 'set_state'},
+                {'action': 'set_state', 'temperature_c': 500}, {'action': 'set_state', 'state_of_health': 0},
+                {'action': 'set_state', 'state_of_health': 1.5},
+                {'action': 'set_charging', 'charging': 'yes'}, {'action': 'inject_fault', 'fault': 'fire',
+                                                                 'active': True},
+                {'action': 'inject_fault', 'fault': 'overheat', 'active': 1},
+                {'action': 'reset'}, {'action': 'set_load', 'name': 'x', 'power_w': 1}, [], None, 'set_state'):
+        with pytest.raises(ValueError):
+            app.control_request(bad)
+
+
+class TestWebApp(tornado_testing.AsyncHTTPTestCase):
+    """The app on a real socket (no ROS): pages, 403s, controls off by default."""
+
+    def get_app(self):
+        self.calls = []
+        self.hub = app.Hub(600.0, allow_control=False, call_service=self._call)
+        self.hub.model.add(TOPIC, 0.0, has_controls=True)
+        self.hub.model.on_battery(TOPIC, battery(), 1.0)
+        return app.make_app(self.hub, '127.0.0.1', self.get_http_port())
+
+    def _call(self, *arguments):
+        self.calls.append(arguments)
+        return True, 'done'
+
+    def host(self):
+        return '127.0.0.1:%d' % self.get_http_port()
+
+    def test_pages_and_chart_js_are_served_to_the_own_host(self):
+        for path in ('/', '/battery?topic=%2Frobot3%2Fbattery_status', '/static/dashboard.js',
+                     '/static/dashboard.css'):
+            response = self.fetch(path, headers={'Host': self.host()})
+            assert response.code == 200, path
+            assert response.headers['X-Frame-Options'] == 'DENY'
+        assert b'data-page="overview"' in self.fetch('/', headers={'Host': self.host()}).body
+        chart = self.fetch('/javascript/chart.js/chart.min.js', headers={'Host': self.host()})
+        assert chart.code == 200 and b'Chart.js' in chart.body[:200]
+        batteries = json.loads(self.fetch('/api/batteries', headers={'Host': self.host()}).body)
+        assert [b['topic'] for b in batteries['batteries']] == [TOPIC] and batteries['allow_control'] is False
+
+    def test_a_foreign_host_or_origin_gets_403(self):
+        for headers in ({'Host': 'evil.example:%d' % self.get_http_port()},
+                        {'Host': self.host(), 'Origin': 'http://evil.example'}):
+            for path in ('/', '/battery', '/static/dashboard.js', '/api/batteries', '/live',
+                         '/javascript/chart.js/chart.min.js'):
+                assert self.fetch(path, headers=headers).code == 403, (path, headers)
+
+    def test_controls_are_off_unless_allowed(self):
+        response = self.fetch('/api/control', method='POST', headers={'Host': self.host(),
+                                                                      'Content-Type': 'application/json'},
+                              body=json.dumps({'topic': TOPIC, 'action': 'set_charging', 'charging': True}))
+        assert response.code == 403 and self.calls == []
+
+    def test_with_controls_on_only_checked_requests_reach_the_service(self):
+        self.hub.allow_control = True
+        headers = {'Host': self.host(), 'Content-Type': 'application/json', 'Origin': 'http://' + self.host()}
+
+        def post(body, extra=None):
+            return self.fetch('/api/control', method='POST', headers=dict(headers, **(extra or {})),
+                              body=json.dumps(body))
+        assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 300}).code == 400
+        assert post({'topic': '/nobody/battery_status', 'action': 'set_charging', 'charging': True}).code == 404
+        assert post({'topic': TOPIC, 'action': 'set_charging', 'charging': True},
+                    {'Origin': 'http://evil.example'}).code == 403
+        assert post({'topic': TOPIC, 'action': 'set_charging', 'charging': True},
+                    {'Content-Type': 'text/plain'}).code == 415
+        assert self.calls == []
+        assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 15}).code == 200
+        assert self.calls[0][:2] == (TOPIC, 'set_state') and self.calls[0][2]['percentage'] == 15.0
