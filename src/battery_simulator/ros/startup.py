@@ -76,8 +76,8 @@ def init_node(name, read_settings):
         exit_on_startup_error(error)
 
 
-def exit_on_startup_error(error):
-    """Log one fatal line, stop the launch that started this node, and exit 1.
+def exit_on_startup_error(error, stop_launch=True):
+    """Log one fatal line, stop the launch that started this node (unless ``stop_launch`` is false), and exit 1.
 
     A respawning node (the server) would otherwise be started again every
     respawn_delay and print the same line for ever: a bad value does not go
@@ -86,7 +86,7 @@ def exit_on_startup_error(error):
     crashed. Under rosrun or rostest the parent is left alone.
     """
     launcher = os.getppid()
-    stop_launch = _is_roslaunch(launcher)
+    stop_launch = stop_launch and _is_roslaunch(launcher)
     rospy.logfatal('%s%s', error, '; stopping the launch' if stop_launch else '')
     sys.stderr.flush()
     if stop_launch:

@@ -195,7 +195,8 @@ def main():
             reason = 'in use' if error.errno == errno.EADDRINUSE else 'not available (%s)' % error.strerror
             exit_on_startup_error(StartupError('parameter %s = %d is invalid: %s:%d is %s; choose another port'
                                                % (rospy.resolve_name('~port'), settings['port'], settings['host'],
-                                                  settings['port'], reason)))
+                                                  settings['port'], reason)),
+                                  stop_launch=False)   # dashboard.launch's required="true" ends a launch of it alone
         threading.Thread(target=node.scan_loop, name='dashboard_scan', daemon=True).start()
         start_pushing(hub)
         rospy.on_shutdown(lambda: (node.stop(), loop.add_callback(loop.stop)))
