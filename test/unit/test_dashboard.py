@@ -289,3 +289,23 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert self.calls == []
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 15}).code == 200
         assert self.calls[0][:2] == (TOPIC, 'set_state') and self.calls[0][2]['percentage'] == 15.0
+
+
+def test_a_stalled_page_is_closed_rather_than_buffered_for():
+    import concurrent.futures
+    import types
+    socket = app.LiveSocket.__new__(app.LiveSocket)
+    hub = app.Hub(600.0, False)
+    socket._unsent, closed, pending = 0, [], []
+    socket.application = types.SimpleNamespace(settings={'hub': hub})
+    hub.pages.add(socket)
+    socket.write_message = lambda message: pending.append(concurrent.futures.Future()) or pending[-1]
+    socket.close = lambda code=None, reason=None: closed.append(code)
+    for _ in range(app.MAX_UNSENT_PUSHES):
+        socket.send('{}')
+    assert not closed and socket in hub.pages
+    pending[0].set_result(None)               # the page took one: room for one more
+    socket.send('{}')
+    assert not closed
+    socket.send('{}')                         # a whole minute of pushes unsent: closed, no longer pushed to
+    assert closed == [1013] and socket not in hub.pages

@@ -26,6 +26,7 @@ from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
 STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
 CHART_JS_DIR = '/usr/share/javascript/chart.js'
 PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
+MAX_UNSENT_PUSHES = 240        # a page this many pushes (a minute) behind is closed, not buffered for
 SECURITY_HEADERS = {
     'Content-Security-Policy': "default-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
                                "frame-ancestors 'none'",
@@ -263,16 +264,29 @@ class LiveSocket(_Guard, tornado.websocket.WebSocketHandler):
         return origin_address(origin) in self.settings['own_addresses']
 
     def open(self):
+        self._unsent = 0
         hub = self.settings['hub']
         self.set_nodelay(True)
         self.write_message(hub.snapshot_message())
         hub.pages.add(self)
 
     def send(self, message):
+        """Send a change; a page that has not taken MAX_UNSENT_PUSHES of them (a stalled tab) is closed
+        rather than buffered for without end: it reconnects and starts again from a snapshot."""
+        if self._unsent >= MAX_UNSENT_PUSHES:
+            self.settings['hub'].pages.discard(self)
+            self.close(1013, 'too far behind')
+            return
         try:
-            self.write_message(message)
+            sent = self.write_message(message)
         except tornado.websocket.WebSocketClosedError:
             self.settings['hub'].pages.discard(self)
+            return
+        self._unsent += 1
+        sent.add_done_callback(self._on_sent)
+
+    def _on_sent(self, _future):
+        self._unsent -= 1
 
     def on_message(self, message):
         pass
