@@ -1,12 +1,18 @@
 """An equivalent-circuit Li-ion pack model (no rospy).
 
 Each cell is an open-circuit voltage source OCV(SOC) with a series resistance R0
-and one RC pair (R1, tau1), a lumped thermal mass and Coulomb counting. All
-cells are equal, so the pack is one cell scaled: V x Ns, I / Np, Q x Np.
+and two RC pairs: a slow one (R1, tau1: solid-state diffusion) and an optional
+fast one (R_fast, tau_fast: charge transfer), a lumped thermal mass and Coulomb
+counting. The resistances may depend on SOC (factor tables) and on the
+current's direction; the OCV may have a charge branch above the discharge
+branch, with one hysteresis state h in [-1, 1] moving between them with the
+charge put through. All cells are equal, so the pack is one cell scaled:
+V x Ns, I / Np, Q x Np.
 
 Time is an argument (``step(dt_s)``), so runs are deterministic. Within a step
-the current is held constant and the RC voltage is updated exactly, so results
-do not depend on the step size. Currents are positive when charging, negative
+the current is held constant and the RC voltages and h are updated exactly
+(the resistances are taken at the step's starting SOC), so results hardly
+depend on the step size. Currents are positive when charging, negative
 when discharging (the sensor_msgs/BatteryState convention).
 
 The pack protection acts as a real BMS does, and within the step: the load is
@@ -58,6 +64,11 @@ _SELF_CLEARING = (CutOff.OVER_CURRENT, CutOff.POWER_LIMIT, CutOff.OVER_TEMPERATU
 PROTECTION_HYSTERESIS_K = 5.0
 
 
+#: saved-state keys added with the fast RC pair and the OCV hysteresis (issue 25),
+#: with the values a state saved before them resumes with
+SINCE_TWO_RC = {'fast_rc_voltage_v': 0.0, 'hysteresis': -1.0}
+
+
 class Health(enum.Enum):
     """Mapped to BatteryState.power_supply_health."""
 
@@ -103,6 +114,38 @@ class OcvCurve:
         return min(max(soc, 0.0), 1.0)
 
 
+class ResistanceTable:
+    """R0, R1 and R_fast per cell at the reference temperature, by SOC and direction."""
+
+    def __init__(self, params):
+        p = params
+        self.discharge = (p.r0_ohm, p.r1_ohm, p.r_fast_ohm)
+        self.charge = (p.r0_ohm * p.r0_charge_factor, p.r1_ohm * p.r1_charge_factor,
+                       p.r_fast_ohm * p.r_fast_charge_factor)
+        #: None when no resistance depends on SOC
+        self.soc_points = tuple(p.resistance_soc) if p.resistance_soc else None
+        if self.soc_points is None:
+            return
+        ones = (1.0,) * len(self.soc_points)
+        factors = [tuple(t) or ones for t in (p.r0_soc_factor, p.r1_soc_factor, p.r_fast_soc_factor)]
+        # Per segment: (start SOC, the three factors there, their three slopes).
+        self._segments = tuple(
+            (s0, tuple(f[k] for f in factors), tuple((f[k + 1] - f[k]) / (s1 - s0) for f in factors))
+            for k, (s0, s1) in enumerate(zip(self.soc_points, self.soc_points[1:])))
+        self._last = len(self._segments) - 1
+
+    def at(self, soc, charging):
+        """(r0, r1, r_fast) in ohm at ``soc`` for a charging or discharging current."""
+        base = self.charge if charging else self.discharge
+        if self.soc_points is None:
+            return base
+        soc = min(max(soc, 0.0), 1.0)
+        start, factors, slopes = self._segments[min(max(bisect_right(self.soc_points, soc) - 1, 0), self._last)]
+        offset = soc - start
+        return (base[0] * (factors[0] + slopes[0] * offset), base[1] * (factors[1] + slopes[1] * offset),
+                base[2] * (factors[2] + slopes[2] * offset))
+
+
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
 #: set_state stop there), so every capacity the model divides by stays positive
 MIN_STATE_OF_HEALTH = 0.01
@@ -115,10 +158,18 @@ class BatteryModel:
         params = params if params is not None else BatteryParameters()
         _check_fraction('state_of_charge', state_of_charge)
         self.params = params
-        self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)
+        self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)   # the discharge branch
+        # The charge branch less the discharge branch (None: one OCV curve).
+        self._ocv_gap = OcvCurve(params.ocv_soc, [c - d for c, d in zip(
+            params.ocv_charge_voltage_v, params.ocv_voltage_v)]) if params.ocv_charge_voltage_v else None
+        self._hysteresis_per_as = 1.0 / (3600.0 * params.hysteresis_ah)
+        self._resistances = ResistanceTable(params)
+        self._has_fast_pair = params.r_fast_ohm > 0.0
         self.mode = mode
         self.state_of_charge = float(state_of_charge)
-        self.rc_voltage_v = 0.0       # voltage across the RC pair, per cell
+        self.rc_voltage_v = 0.0       # voltage across the (slow) RC pair, per cell
+        self.fast_rc_voltage_v = 0.0  # voltage across the fast RC pair, per cell
+        self.hysteresis = -1.0        # -1 on the discharge branch of the OCV, +1 on the charge branch
         self.cell_current_a = 0.0     # the current held over the last step
         self.temperature_c = self.initial_temperature_c
         self.discharged_ah = 0.0      # per cell, since start (for the cycle count)
@@ -163,7 +214,7 @@ class BatteryModel:
         """Put the pack where a test needs it; None leaves a value as it is.
 
         Raises ValueError (nothing changed) for a value out of range. The RC
-        pair is left settled, as after a long rest.
+        pairs are left settled, as after a long rest (the OCV stays on its branch).
         """
         if state_of_charge is not None:
             _check_fraction('state_of_charge', state_of_charge)
@@ -177,6 +228,7 @@ class BatteryModel:
         if state_of_charge is not None:
             self.state_of_charge = float(state_of_charge)
             self.rc_voltage_v = 0.0
+            self.fast_rc_voltage_v = 0.0
         if temperature_c is not None:
             self.temperature_c = float(temperature_c)
         if state_of_health is not None:
@@ -189,20 +241,30 @@ class BatteryModel:
     def export_state(self):
         """The state that survives a restart, as plain numbers (see restore_state)."""
         return {'state_of_charge': self.state_of_charge, 'rc_voltage_v': self.rc_voltage_v,
+                'fast_rc_voltage_v': self.fast_rc_voltage_v, 'hysteresis': self.hysteresis,
                 'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
                 'state_of_health': self.state_of_health}
 
     def restore_state(self, saved):
-        """Resume from ``export_state()`` output; ValueError (nothing changed) if it does not fit."""
-        if not isinstance(saved, dict) or set(saved) != set(self.export_state()):
-            raise ValueError('saved state %r is invalid: must have exactly %s'
-                             % (saved, ', '.join(sorted(self.export_state()))))
-        if not all(_is_finite(v) for v in saved.values()) or saved['discharged_ah'] < 0 \
-                or abs(saved['rc_voltage_v']) > 1.0:
+        """Resume from ``export_state()`` output; ValueError (nothing changed) if it does not fit.
+
+        A state saved by the single-RC model (no SINCE_TWO_RC keys) resumes with
+        the fast pair settled and the OCV on its discharge branch.
+        """
+        keys = set(self.export_state())
+        if not isinstance(saved, dict) or set(saved) not in (keys, keys - set(SINCE_TWO_RC)):
+            raise ValueError('saved state %r is invalid: must have exactly %s (%s may be missing)'
+                             % (saved, ', '.join(sorted(keys)), ', '.join(SINCE_TWO_RC)))
+        values = dict(SINCE_TWO_RC, **saved)
+        if not all(_is_finite(v) for v in values.values()) or values['discharged_ah'] < 0 \
+                or abs(values['rc_voltage_v']) > 1.0 or abs(values['fast_rc_voltage_v']) > 1.0 \
+                or abs(values['hysteresis']) > 1.0:
             raise ValueError('saved state %r is invalid: values out of range' % (saved,))
-        self.set_state(saved['state_of_charge'], saved['temperature_c'], saved['state_of_health'])
-        self.rc_voltage_v = float(saved['rc_voltage_v'])
-        self.discharged_ah = float(saved['discharged_ah'])
+        self.set_state(values['state_of_charge'], values['temperature_c'], values['state_of_health'])
+        self.rc_voltage_v = float(values['rc_voltage_v'])
+        self.fast_rc_voltage_v = float(values['fast_rc_voltage_v'])
+        self.hysteresis = float(values['hysteresis'])
+        self.discharged_ah = float(values['discharged_ah'])
         self._settle_status()
         self.step(0.0)
 
@@ -236,12 +298,12 @@ class BatteryModel:
             self._disconnect(CutOff.OVER_TEMPERATURE, Status.NOT_CHARGING)
 
     def _state(self):
-        return (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
-                self.state_of_health, self.status, self._capacity_as)
+        return (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
+                self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as)
 
     def _restore(self, state):
-        (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
-         self.state_of_health, self.status, self._capacity_as) = state
+        (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
+         self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as) = state
 
     def _trip(self):
         """The CutOff the pack protection would act on now, or None."""
@@ -279,13 +341,20 @@ class BatteryModel:
         p = self.params
         cell_demand = demand / p.cells_parallel
         resistance_scale = self._resistance_scale()
-        r0 = p.r0_ohm * resistance_scale
-        r1 = p.r1_ohm * resistance_scale
+        r0, r1, r_fast = self._resistances.at(self.state_of_charge, cell_demand > 0.0)
+        r0 = r0 * resistance_scale
+        r1 = r1 * resistance_scale
         decay = math.exp(-dt_s / p.tau1_s)
         rc_gain = r1 * (1.0 - decay)
+        if self._has_fast_pair:
+            r_fast = r_fast * resistance_scale
+            fast_decay = math.exp(-dt_s / p.tau_fast_s)
+            fast_gain = r_fast * (1.0 - fast_decay)
+        else:
+            fast_decay, fast_gain = 1.0, 0.0
 
         if cell_demand > 0.0:
-            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, r0)
+            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0)
         elif cell_demand < 0.0:
             current = self._discharge_current(cell_demand)
         else:
@@ -297,6 +366,10 @@ class BatteryModel:
         soc = self.state_of_charge + efficiency * current * dt_s / self._capacity_as
         v1_start = self.rc_voltage_v
         self.rc_voltage_v = decay * v1_start + rc_gain * current
+        fast_start = self.fast_rc_voltage_v
+        self.fast_rc_voltage_v = fast_decay * fast_start + fast_gain * current
+        if self._ocv_gap is not None and current != 0.0:
+            self.hysteresis = self._hysteresis_after(current, dt_s)
         self.cell_current_a = current
         if current < 0.0:
             discharged_ah = -current * dt_s / 3600.0
@@ -312,6 +385,10 @@ class BatteryModel:
         fraction = (1.0 - decay) * p.tau1_s / dt_s if dt_s > 0.0 else 1.0
         v1_mean = v1_settled + (v1_start - v1_settled) * fraction
         heat_w = current * current * r0 + current * v1_mean
+        if self._has_fast_pair:
+            fast_settled = r_fast * current
+            fraction = (1.0 - fast_decay) * p.tau_fast_s / dt_s if dt_s > 0.0 else 1.0
+            heat_w += current * (fast_settled + (fast_start - fast_settled) * fraction)
         conductance = p.cell_heat_transfer_w_per_k
         settled_c = p.ambient_temperature_c + heat_w / conductance
         self.temperature_c = settled_c + (self.temperature_c - settled_c) * math.exp(
@@ -340,15 +417,15 @@ class BatteryModel:
         cell_power = power_w / (p.cells_series * p.cells_parallel)
         if cell_power <= 0.0:
             return -current_a
-        emf = self.ocv.voltage(self.state_of_charge) + self.rc_voltage_v
-        r0 = p.r0_ohm * self._resistance_scale()
+        emf = self.open_circuit_voltage_v + self.rc_voltage_v + self.fast_rc_voltage_v
+        r0 = self._resistances.at(self.state_of_charge, False)[0] * self._resistance_scale()
         discriminant = (emf - r0 * cell_current) ** 2 - 4.0 * r0 * cell_power
         if discriminant < 0.0 or emf <= 0.0:
             return -math.inf
         cell_load = (emf + r0 * cell_current - math.sqrt(discriminant)) / (2.0 * r0)
         return -cell_load * p.cells_parallel
 
-    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, r0):
+    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0):
         """CC up to the charge voltage, then CV with the current tapering."""
         if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
             self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
@@ -361,8 +438,23 @@ class BatteryModel:
         soc_gain = p.coulombic_efficiency * dt_s / self._capacity_as
         # The current that ends the step exactly at the charge voltage
         # (implicit in SOC, so large steps stay stable).
-        headroom = p.cell_charge_voltage_v - self.ocv.voltage(soc) - decay * self.rc_voltage_v
-        cv_current = headroom / (r0 + rc_gain + self.ocv.slope(soc) * soc_gain)
+        headroom = (p.cell_charge_voltage_v - self.ocv.voltage(soc) - decay * self.rc_voltage_v
+                    - fast_decay * self.fast_rc_voltage_v)
+        resistance = r0 + rc_gain + fast_gain
+        if self._ocv_gap is None:
+            cv_current = headroom / (resistance + self.ocv.slope(soc) * soc_gain)
+        else:
+            # The OCV also rises by h's move towards the charge branch: take h at
+            # the end of the step for the CC current, then (if CV) for the CV current.
+            gap, gap_slope = self._ocv_gap.voltage(soc), self._ocv_gap.slope(soc)
+            current = cell_demand
+            for _ in range(2):
+                weight = 0.5 * (1.0 + self._hysteresis_after(max(current, 0.0), dt_s))
+                cv_current = (headroom - weight * gap) / (
+                    resistance + (self.ocv.slope(soc) + weight * gap_slope) * soc_gain)
+                if cv_current >= cell_demand:
+                    break
+                current = cv_current
         current = min(cell_demand, cv_current)
         if current < cell_demand and current * p.cells_parallel <= p.pack_termination_current_a:
             self._become_full()
@@ -404,10 +496,11 @@ class BatteryModel:
 
     def _become_full(self):
         # A fuel gauge calls the end of the CV taper 100 %. The terminal
-        # voltage stays continuous: the RC pair takes up the OCV step.
-        self.rc_voltage_v += self.ocv.voltage(self.state_of_charge) - self.ocv.voltage(1.0)
-        self.status = Status.FULL
+        # voltage stays continuous: the slow RC pair takes up the OCV step.
+        ocv_before = self.open_circuit_voltage_v
         self.state_of_charge = 1.0
+        self.rc_voltage_v += ocv_before - self.open_circuit_voltage_v
+        self.status = Status.FULL
         self.cell_current_a = 0.0
 
     def _settle_status(self):
@@ -434,6 +527,11 @@ class BatteryModel:
         return math.exp(p.arrhenius_temperature_k * (
             1.0 / (self.temperature_c + _KELVIN) - 1.0 / (p.reference_temperature_c + _KELVIN)))
 
+    def _hysteresis_after(self, current, dt_s):
+        """h after ``current`` (A per cell, not 0) held for ``dt_s``: exact in the charge put through."""
+        target = 1.0 if current > 0.0 else -1.0
+        return target + (self.hysteresis - target) * math.exp(-abs(current) * dt_s * self._hysteresis_per_as)
+
     def _update_capacity(self):
         self._capacity_as = self.params.cell_capacity_ah * 3600.0 * self.state_of_health
 
@@ -451,11 +549,20 @@ class BatteryModel:
         return self.params.initial_cycle_count + self.discharged_ah / self.params.cell_capacity_ah
 
     @property
+    def open_circuit_voltage_v(self):
+        """OCV of one cell now, V: on the discharge branch, the charge branch or between (hysteresis)."""
+        soc = self.state_of_charge
+        if self._ocv_gap is None:
+            return self.ocv.voltage(soc)
+        return self.ocv.voltage(soc) + 0.5 * (1.0 + self.hysteresis) * self._ocv_gap.voltage(soc)
+
+    @property
     def cell_voltage_v(self):
         """Terminal voltage of one cell under the present current, V."""
         current = self.cell_current_a
-        return (self.ocv.voltage(self.state_of_charge) + self.rc_voltage_v
-                + current * self.params.r0_ohm * self._resistance_scale())
+        r0 = self._resistances.at(self.state_of_charge, current > 0.0)[0]
+        return (self.open_circuit_voltage_v + self.rc_voltage_v + self.fast_rc_voltage_v
+                + current * r0 * self._resistance_scale())
 
     @property
     def voltage_v(self):
