@@ -57,6 +57,8 @@ CURRENT_LOG_WEIGHT_V = 0.05    # a CV current off by a factor e weighs as 50 mV
 CURRENT_FLOOR_A = 0.005
 SMOOTHNESS_WEIGHT_V = 0.003    # a table's log curvature of 1 at a grid point weighs as 3 mV
 CHARGE_RUN_WEIGHT = 0.7        # each of the 4 charges, against 1 for a discharge
+CC_END_WEIGHT = 3.0            # the CC voltage in the last CC_END_S before the CV sets the CC duration
+CC_END_S = 600.0
 DISCHARGES = {'0.5C': ('549_Dis_0p5C.csv', 0.0), '2C': ('549_Dis_2C.csv', EXCLUDED_END_SOC)}
 
 # The fitted vector: log R0 and log R1 at RESISTANCE_SOC, then these (log).
@@ -162,9 +164,11 @@ def charge_residuals(params, rest, run):
     _, _, trace = simulated_charge(params, rest, run, max_step_s=10.0)
     cc_current = run[0].current_a
     volts, currents = [], []
+    cc_end_s = max(s.time_s for s in run if s.current_a >= 0.995 * cc_current)
     for (voltage, current), sample in zip(trace, run):
         if sample.current_a >= 0.995 * cc_current:
-            volts.append(voltage - sample.voltage_v)
+            weight = CC_END_WEIGHT if sample.time_s > cc_end_s - CC_END_S else 1.0
+            volts.append(weight * (voltage - sample.voltage_v))
         else:
             currents.append(CURRENT_LOG_WEIGHT_V * (math.log(max(current, 0.0) + CURRENT_FLOOR_A)
                                                     - math.log(sample.current_a + CURRENT_FLOOR_A)))
