@@ -95,17 +95,26 @@ class OcvCurve:
         self._last = len(self._slopes) - 1
 
     def _segment(self, soc):
-        return min(max(bisect_right(self.soc_points, soc) - 1, 0), self._last)
+        k = bisect_right(self.soc_points, soc) - 1
+        return 0 if k < 0 else (k if k < self._last else self._last)
 
     def voltage(self, soc):
         """OCV at ``soc`` (clamped to the table), V."""
         k = self._segment(soc)
-        soc = min(max(soc, 0.0), 1.0)
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
         return self.voltages[k] + self._slopes[k] * (soc - self.soc_points[k])
 
     def slope(self, soc):
         """dOCV/dSOC at ``soc``, V per unit SOC."""
         return self._slopes[self._segment(soc)]
+
+    def voltage_beside(self, other, soc, weight):
+        """``other``'s voltage plus ``weight`` times this curve's at ``soc`` (one table look-up: the
+        two share their SOC points)."""
+        k = self._segment(soc)
+        offset = (0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)) - self.soc_points[k]
+        return (other.voltages[k] + other._slopes[k] * offset
+                + weight * (self.voltages[k] + self._slopes[k] * offset))
 
     def soc(self, voltage):
         """The SOC whose OCV is ``voltage`` (clamped to 0..1)."""
@@ -139,11 +148,23 @@ class ResistanceTable:
         base = self.charge if charging else self.discharge
         if self.soc_points is None:
             return base
-        soc = min(max(soc, 0.0), 1.0)
-        start, factors, slopes = self._segments[min(max(bisect_right(self.soc_points, soc) - 1, 0), self._last)]
+        start, factors, slopes, soc = self._segment(soc)
         offset = soc - start
         return (base[0] * (factors[0] + slopes[0] * offset), base[1] * (factors[1] + slopes[1] * offset),
                 base[2] * (factors[2] + slopes[2] * offset))
+
+    def r0_at(self, soc, charging):
+        """r0 alone, ohm (see at)."""
+        r0 = self.charge[0] if charging else self.discharge[0]
+        if self.soc_points is None:
+            return r0
+        start, factors, slopes, soc = self._segment(soc)
+        return r0 * (factors[0] + slopes[0] * (soc - start))
+
+    def _segment(self, soc):
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+        k = bisect_right(self.soc_points, soc) - 1
+        return self._segments[k if k < self._last else self._last] + (soc,)
 
 
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
@@ -165,6 +186,8 @@ class BatteryModel:
         self._hysteresis_per_as = 1.0 / (3600.0 * params.hysteresis_ah)
         self._resistances = ResistanceTable(params)
         self._has_fast_pair = params.r_fast_ohm > 0.0
+        self._step_decays = (None, None)   # (dt_s, its exponentials): steps mostly repeat their length
+        self._scale_at = (None, 1.0)       # (temperature, the Arrhenius factor there)
         self.mode = mode
         self.state_of_charge = float(state_of_charge)
         self.rc_voltage_v = 0.0       # voltage across the (slow) RC pair, per cell
@@ -344,14 +367,18 @@ class BatteryModel:
         r0, r1, r_fast = self._resistances.at(self.state_of_charge, cell_demand > 0.0)
         r0 = r0 * resistance_scale
         r1 = r1 * resistance_scale
-        decay = math.exp(-dt_s / p.tau1_s)
+        step_dt_s, decays = self._step_decays
+        if dt_s != step_dt_s:
+            decays = (math.exp(-dt_s / p.tau1_s), math.exp(-dt_s / p.tau_fast_s) if self._has_fast_pair else 1.0,
+                      math.exp(-dt_s * p.cell_heat_transfer_w_per_k / p.cell_heat_capacity_j_per_k))
+            self._step_decays = (dt_s, decays)
+        decay, fast_decay, thermal_decay = decays
         rc_gain = r1 * (1.0 - decay)
         if self._has_fast_pair:
             r_fast = r_fast * resistance_scale
-            fast_decay = math.exp(-dt_s / p.tau_fast_s)
             fast_gain = r_fast * (1.0 - fast_decay)
         else:
-            fast_decay, fast_gain = 1.0, 0.0
+            fast_gain = 0.0
 
         if cell_demand > 0.0:
             current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0)
@@ -368,7 +395,7 @@ class BatteryModel:
         self.rc_voltage_v = decay * v1_start + rc_gain * current
         fast_start = self.fast_rc_voltage_v
         self.fast_rc_voltage_v = fast_decay * fast_start + fast_gain * current
-        if self._ocv_gap is not None and current != 0.0:
+        if self._ocv_gap is not None and current != 0.0 and self.hysteresis != (1.0 if current > 0.0 else -1.0):
             self.hysteresis = self._hysteresis_after(current, dt_s)
         self.cell_current_a = current
         if current < 0.0:
@@ -377,7 +404,7 @@ class BatteryModel:
             self.state_of_health = max(MIN_STATE_OF_HEALTH, self.state_of_health
                                        - p.capacity_fade_per_cycle * discharged_ah / p.cell_capacity_ah)
             self._update_capacity()
-        self.state_of_charge = min(max(soc, 0.0), 1.0)
+        self.state_of_charge = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
         # Lumped thermal mass, exact for the heat held over the step; the RC
         # voltage's exact mean over the step gives its share of the heat.
@@ -391,8 +418,7 @@ class BatteryModel:
             heat_w += current * (fast_settled + (fast_start - fast_settled) * fraction)
         conductance = p.cell_heat_transfer_w_per_k
         settled_c = p.ambient_temperature_c + heat_w / conductance
-        self.temperature_c = settled_c + (self.temperature_c - settled_c) * math.exp(
-            -dt_s * conductance / p.cell_heat_capacity_j_per_k)
+        self.temperature_c = settled_c + (self.temperature_c - settled_c) * thermal_decay
 
         if self.status is Status.CHARGING and self.state_of_charge >= 1.0:
             self._become_full()
@@ -418,7 +444,7 @@ class BatteryModel:
         if cell_power <= 0.0:
             return -current_a
         emf = self.open_circuit_voltage_v + self.rc_voltage_v + self.fast_rc_voltage_v
-        r0 = self._resistances.at(self.state_of_charge, False)[0] * self._resistance_scale()
+        r0 = self._resistances.r0_at(self.state_of_charge, False) * self._resistance_scale()
         discriminant = (emf - r0 * cell_current) ** 2 - 4.0 * r0 * cell_power
         if discriminant < 0.0 or emf <= 0.0:
             return -math.inf
@@ -521,11 +547,16 @@ class BatteryModel:
             self.status = Status.NOT_CHARGING
 
     def _resistance_scale(self):
+        temperature_c, scale = self._scale_at
+        if self.temperature_c == temperature_c:
+            return scale
         p = self.params
         if not p.arrhenius_temperature_k:
             return 1.0
-        return math.exp(p.arrhenius_temperature_k * (
+        scale = math.exp(p.arrhenius_temperature_k * (
             1.0 / (self.temperature_c + _KELVIN) - 1.0 / (p.reference_temperature_c + _KELVIN)))
+        self._scale_at = (self.temperature_c, scale)
+        return scale
 
     def _hysteresis_after(self, current, dt_s):
         """h after ``current`` (A per cell, not 0) held for ``dt_s``: exact in the charge put through."""
@@ -551,16 +582,15 @@ class BatteryModel:
     @property
     def open_circuit_voltage_v(self):
         """OCV of one cell now, V: on the discharge branch, the charge branch or between (hysteresis)."""
-        soc = self.state_of_charge
         if self._ocv_gap is None:
-            return self.ocv.voltage(soc)
-        return self.ocv.voltage(soc) + 0.5 * (1.0 + self.hysteresis) * self._ocv_gap.voltage(soc)
+            return self.ocv.voltage(self.state_of_charge)
+        return self._ocv_gap.voltage_beside(self.ocv, self.state_of_charge, 0.5 * (1.0 + self.hysteresis))
 
     @property
     def cell_voltage_v(self):
         """Terminal voltage of one cell under the present current, V."""
         current = self.cell_current_a
-        r0 = self._resistances.at(self.state_of_charge, current > 0.0)[0]
+        r0 = self._resistances.r0_at(self.state_of_charge, current > 0.0)
         return (self.open_circuit_voltage_v + self.rc_voltage_v + self.fast_rc_voltage_v
                 + current * r0 * self._resistance_scale())
 
