@@ -59,6 +59,12 @@ SMOOTHNESS_WEIGHT_V = 0.003    # a table's log curvature of 1 at a grid point we
 CHARGE_RUN_WEIGHT = 0.7        # each of the 4 charges, against 1 for a discharge
 CC_END_WEIGHT = 3.0            # the CC voltage in the last CC_END_S before the CV sets the CC duration
 CC_END_S = 600.0
+#: a smooth correction of the C/20 discharge branch, fitted to the discharges at working currents
+#: (on this grid, paying OCV_CORRECTION_WEIGHT for its size and its curvature)
+OCV_CORRECTION = True
+OCV_CORRECTION_SOC = tuple(round(0.05 * k, 2) for k in range(21))
+OCV_CORRECTION_MAX_V = 0.05
+OCV_CORRECTION_WEIGHT = 0.1
 DISCHARGES = {'0.5C': ('549_Dis_0p5C.csv', 0.0), '2C': ('549_Dis_2C.csv', EXCLUDED_END_SOC)}
 
 # The fitted vector: log R0 and log R1 at RESISTANCE_SOC, then these (log).
@@ -84,7 +90,7 @@ class Measurements:
         self.capacity_ah = -self.c20_discharge[-1].capacity_ah
 
 
-def ocv_branches(data, params):
+def ocv_branches(data, params, correction_v=None):
     """OCV discharge and charge branches at SOC_GRID from the C/20 test, less the
     model's own C/20 voltage drop (its settled R0 + R1 + R_fast there)."""
     probe = _probe_model(params)
@@ -106,12 +112,14 @@ def ocv_branches(data, params):
             up.append((soc, s.voltage_v - s.current_a * drop(soc, True)))
     up.sort()
     discharge = numpy.interp(SOC_GRID, [p[0] for p in down], [p[1] for p in down])
+    if correction_v is not None:
+        discharge = discharge + numpy.interp(SOC_GRID, OCV_CORRECTION_SOC, correction_v)
     charge = numpy.interp(SOC_GRID, [p[0] for p in up], [p[1] for p in up])
     discharge[0] = min(discharge[0], CUTOFF_VOLTAGE_V)
     discharge[-1] = max(discharge[-1], CHARGE_VOLTAGE_V)
     discharge = _increasing(discharge)
     charge = _increasing(numpy.maximum(charge, discharge))
-    return tuple(round(float(v), 4) for v in discharge), tuple(round(float(v), 4) for v in charge)
+    return tuple(float(v) for v in discharge), tuple(float(v) for v in charge)
 
 
 def _increasing(volts):
@@ -127,11 +135,13 @@ def _probe_model(params):
 
 
 def parameters_from(vector, base, data):
-    """The cell parameters for a fitted vector (log values), with their OCV branches."""
+    """The cell parameters for a fitted vector, with their OCV branches."""
+    vector = _values(vector)
     n = len(RESISTANCE_SOC)
     r0 = numpy.exp(vector[:n])
     r1 = numpy.exp(vector[n:2 * n])
-    scalars = dict(zip(SCALARS, numpy.exp(vector[2 * n:])))
+    scalars = dict(zip(SCALARS, numpy.exp(vector[2 * n:2 * n + len(SCALARS)])))
+    correction_v = vector[2 * n + len(SCALARS):] if OCV_CORRECTION else None
     r0_factor = r0 / r0[REFERENCE_INDEX]
     params = replace(base, r0_ohm=float(r0[REFERENCE_INDEX]), r1_ohm=float(r1[REFERENCE_INDEX]),
                      resistance_soc=RESISTANCE_SOC,
@@ -139,19 +149,40 @@ def parameters_from(vector, base, data):
                      r1_soc_factor=tuple(float(f) for f in r1 / r1[REFERENCE_INDEX]),
                      r_fast_soc_factor=tuple(float(f) for f in r0_factor),   # charge transfer follows R0's shape
                      **{k: float(v) for k, v in scalars.items()})
-    discharge, charge = ocv_branches(data, params)
+    discharge, charge = ocv_branches(data, params, correction_v)
     return replace(params, ocv_voltage_v=discharge, ocv_charge_voltage_v=charge)
+
+
+# The fitted vector holds LOG_OFFSET + log(value) and 1 + correction (V): finite
+# differences step relative to the value, and none of these is near 0.
+LOG_OFFSET = 10.0
+
+
+def _values(vector):
+    """Log values and corrections (V) from the fitted vector."""
+    n = 2 * len(RESISTANCE_SOC) + len(SCALARS)
+    return numpy.concatenate([vector[:n] - LOG_OFFSET, vector[n:] - 1.0])
+
+
+def _vector(values):
+    n = 2 * len(RESISTANCE_SOC) + len(SCALARS)
+    return numpy.concatenate([values[:n] + LOG_OFFSET, values[n:] + 1.0])
 
 
 def start_vector():
     n = len(RESISTANCE_SOC)
-    return numpy.log(numpy.array([START['r0']] * n + [START['r1']] * n + [START[k] for k in SCALARS]))
+    logs = numpy.log(numpy.array([START['r0']] * n + [START['r1']] * n + [START[k] for k in SCALARS]))
+    return _vector(numpy.concatenate([logs, numpy.zeros(len(OCV_CORRECTION_SOC) if OCV_CORRECTION else 0)]))
 
 
 def bounds():
     n = len(RESISTANCE_SOC)
     names = ['r0'] * n + ['r1'] * n + list(SCALARS)
-    return (numpy.log([BOUNDS[k][0] for k in names]), numpy.log([BOUNDS[k][1] for k in names]))
+    corrections = len(OCV_CORRECTION_SOC) if OCV_CORRECTION else 0
+    return (_vector(numpy.concatenate([numpy.log([BOUNDS[k][0] for k in names]),
+                                       [-OCV_CORRECTION_MAX_V] * corrections])),
+            _vector(numpy.concatenate([numpy.log([BOUNDS[k][1] for k in names]),
+                                       [OCV_CORRECTION_MAX_V] * corrections])))
 
 
 def discharge_residuals(params, samples):
@@ -177,6 +208,7 @@ def charge_residuals(params, rest, run):
 
 
 def smoothness_residuals(vector):
+    vector = _values(vector)
     n = len(RESISTANCE_SOC)
     soc = numpy.array(RESISTANCE_SOC)
     out = []
@@ -184,6 +216,10 @@ def smoothness_residuals(vector):
         slopes = numpy.diff(table) / numpy.diff(soc)
         curvature = numpy.diff(slopes) * 0.1   # per 10 % SOC
         out.append(SMOOTHNESS_WEIGHT_V * curvature)
+    if OCV_CORRECTION:
+        correction = vector[2 * n + len(SCALARS):]
+        out.append(OCV_CORRECTION_WEIGHT * correction)
+        out.append(OCV_CORRECTION_WEIGHT * numpy.diff(correction, 2))
     return numpy.concatenate(out)
 
 
@@ -247,7 +283,9 @@ def print_table(title, params, data, held_out=()):
 
 def rounded(params):
     """The parameters as the preset file writes them."""
-    return replace(params, r0_ohm=round(params.r0_ohm, 5), r1_ohm=round(params.r1_ohm, 5),
+    return replace(params, ocv_voltage_v=tuple(round(v, 4) for v in params.ocv_voltage_v),
+                   ocv_charge_voltage_v=tuple(round(v, 4) for v in params.ocv_charge_voltage_v),
+                   r0_ohm=round(params.r0_ohm, 5), r1_ohm=round(params.r1_ohm, 5),
                    r_fast_ohm=round(params.r_fast_ohm, 5), tau1_s=round(params.tau1_s),
                    tau_fast_s=round(params.tau_fast_s, 1), hysteresis_ah=round(params.hysteresis_ah, 3),
                    r0_charge_factor=round(params.r0_charge_factor, 3),
