@@ -12,8 +12,11 @@ direction, Arrhenius in temperature.
 
 1. The OCV branches from the C/20 test: its discharge with the model's own C/20
    voltage drop added back, its charge (put on 0..1 SOC from start to end) with
-   that drop taken off. They follow the resistances, so the model reproduces
-   the C/20 test at every step of the fit.
+   that drop taken off; they follow the resistances at every step of the fit.
+   The discharge branch also gets a smooth correction (a 5 % SOC grid, paid for
+   its size and curvature) fitted with the rest: the 0.5C and 2C discharges
+   agree on where the C/20 curve's steps lie at working currents (and the
+   charge-transfer drop at C/20 is larger than the fitted resistances say).
 2. The resistances, time constants and the hysteresis by least squares on the
    voltage of the 0.5C and 2C discharges, the voltage of the 3 A CC-CV charges'
    CC phases and the (log) current of their CV phases, the model running its
@@ -444,8 +447,9 @@ PRESET_TEMPLATE = '''\
 # Battery Data and Example Deep Neural Network xEV SOC Estimator Script",
 # Mendeley Data, V3, doi:10.17632/cp3473x7xv.3, CC BY 4.0.
 # Capacity: the C/20 discharge from full to 2.8 V. OCV: that discharge with the
-# model's C/20 drop added back (discharge branch) and the C/20 charge with it
-# taken off (charge branch). Resistances (by SOC and direction), the fast and
+# model's C/20 drop added back and a smooth correction fitted to the 0.5C and 2C
+# discharges (discharge branch), the C/20 charge with the drop taken off (charge
+# branch, at or above the other). Resistances (by SOC and direction), the fast and
 # the slow RC pair and the hysteresis: fitted to the 0.5C and 2C discharges and
 # the 3 A CC-CV charges. Thermal: fitted to the 2C warming (cell in the test rig).
 name: lg_hg2_cell

@@ -21,7 +21,7 @@ BAD_VALUES = [
 def test_invalid_value_names_parameter_value_and_rule(name, value):
     base = preset('lg_hg2_cell')
     if name in ('ocv_soc', 'ocv_voltage_v'):
-        base = replace(base, ocv_soc=(0.0, 0.3, 0.6, 1.0), ocv_voltage_v=(2.8, 3.6, 3.9, 4.2))
+        base = replace(base, ocv_soc=(0.0, 0.3, 0.6, 1.0), ocv_voltage_v=(2.8, 3.6, 3.9, 4.2), ocv_charge_voltage_v=())
     with pytest.raises(ParameterError) as error:
         replace(base, **{name: value})
     message = str(error.value)

@@ -75,6 +75,18 @@ def test_a_mission_hardly_depends_on_the_step_size(dt_s):
     assert coarse.hysteresis == pytest.approx(fine.hysteresis, abs=1e-3)
 
 
+def test_a_long_step_through_the_resistance_tables_stays_close_to_fine_steps():
+    def run(step_s):
+        model = BatteryModel(replace(TWO_RC, ocv_charge_voltage_v=()), state_of_charge=0.9, mode=Mode.IDLE)
+        for _ in range(int(round(600.0 / step_s))):
+            model.step(step_s, current_a=-3.0)
+        return model
+    fine, coarse = run(0.5), run(600.0)
+    assert coarse.state_of_charge == pytest.approx(fine.state_of_charge, abs=1e-5)   # fade per step
+    assert coarse.voltage_v == pytest.approx(fine.voltage_v, abs=2e-3)
+    assert coarse.temperature_c == pytest.approx(fine.temperature_c, abs=0.05)
+
+
 def test_the_cut_off_is_found_within_the_step():
     def empty_at(step_s):
         model = BatteryModel(TWO_RC, state_of_charge=0.05, mode=Mode.IDLE)

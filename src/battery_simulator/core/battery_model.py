@@ -153,6 +153,27 @@ class ResistanceTable:
         return (base[0] * (factors[0] + slopes[0] * offset), base[1] * (factors[1] + slopes[1] * offset),
                 base[2] * (factors[2] + slopes[2] * offset))
 
+    def along(self, soc, soc_change, fractions, charging):
+        """(r0, r1, r_fast) in ohm, each at ``soc`` plus its fraction of ``soc_change``."""
+        base = self.charge if charging else self.discharge
+        if self.soc_points is None:
+            return base
+        start, factors, slopes, soc = self._segment(soc)
+        end = soc + soc_change
+        if end < start or (end > self.soc_points[self._segment_index(soc) + 1]):
+            return tuple(b * self._factor(k, soc + f * soc_change) for k, (b, f) in enumerate(zip(base, fractions)))
+        return (base[0] * (factors[0] + slopes[0] * (soc + fractions[0] * soc_change - start)),
+                base[1] * (factors[1] + slopes[1] * (soc + fractions[1] * soc_change - start)),
+                base[2] * (factors[2] + slopes[2] * (soc + fractions[2] * soc_change - start)))
+
+    def _factor(self, which, soc):
+        start, factors, slopes, soc = self._segment(soc)
+        return factors[which] + slopes[which] * (soc - start)
+
+    def _segment_index(self, soc):
+        k = bisect_right(self.soc_points, soc) - 1
+        return k if k < self._last else self._last
+
     def r0_at(self, soc, charging):
         """r0 alone, ohm (see at)."""
         r0 = self.charge[0] if charging else self.discharge[0]
@@ -163,8 +184,7 @@ class ResistanceTable:
 
     def _segment(self, soc):
         soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
-        k = bisect_right(self.soc_points, soc) - 1
-        return self._segments[k if k < self._last else self._last] + (soc,)
+        return self._segments[self._segment_index(soc)] + (soc,)
 
 
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
@@ -364,15 +384,32 @@ class BatteryModel:
         p = self.params
         cell_demand = demand / p.cells_parallel
         resistance_scale = self._resistance_scale()
-        r0, r1, r_fast = self._resistances.at(self.state_of_charge, cell_demand > 0.0)
-        r0 = r0 * resistance_scale
-        r1 = r1 * resistance_scale
         step_dt_s, decays = self._step_decays
         if dt_s != step_dt_s:
-            decays = (math.exp(-dt_s / p.tau1_s), math.exp(-dt_s / p.tau_fast_s) if self._has_fast_pair else 1.0,
-                      math.exp(-dt_s * p.cell_heat_transfer_w_per_k / p.cell_heat_capacity_j_per_k))
+            decay = math.exp(-dt_s / p.tau1_s)
+            fast_decay = math.exp(-dt_s / p.tau_fast_s) if self._has_fast_pair else 1.0
+            # Where in the step each resistance is taken when it changes with SOC: R0 at
+            # the end (the terminal voltage there), an RC pair at the moment whose value
+            # its exponential memory of a linear change equals.
+            fractions = (1.0, _memory_fraction(dt_s, p.tau1_s, decay),
+                         _memory_fraction(dt_s, p.tau_fast_s, fast_decay) if self._has_fast_pair else 0.5)
+            decays = (decay, fast_decay,
+                      math.exp(-dt_s * p.cell_heat_transfer_w_per_k / p.cell_heat_capacity_j_per_k), fractions)
             self._step_decays = (dt_s, decays)
-        decay, fast_decay, thermal_decay = decays
+        decay, fast_decay, thermal_decay, fractions = decays
+        by_soc = self._resistances.soc_points is not None
+        if not by_soc:
+            r0, r1, r_fast = self._resistances.at(self.state_of_charge, cell_demand > 0.0)
+        else:
+            # the SOC change of the demanded current (the charger may give less)
+            soc_change = (cell_demand * dt_s / self._capacity_as) if -math.inf < cell_demand < math.inf else 0.0
+            r0, r1, r_fast = self._resistances.along(self.state_of_charge, soc_change, fractions,
+                                                     cell_demand > 0.0)
+            # the heat's mean over the step: each at the middle
+            heat_resistances = self._resistances.along(self.state_of_charge, soc_change, (0.5, 0.5, 0.5),
+                                                       cell_demand > 0.0)
+        r0 = r0 * resistance_scale
+        r1 = r1 * resistance_scale
         rc_gain = r1 * (1.0 - decay)
         if self._has_fast_pair:
             r_fast = r_fast * resistance_scale
@@ -408,6 +445,10 @@ class BatteryModel:
 
         # Lumped thermal mass, exact for the heat held over the step; the RC
         # voltage's exact mean over the step gives its share of the heat.
+        if by_soc:
+            r0 = heat_resistances[0] * resistance_scale
+            r1 = heat_resistances[1] * resistance_scale
+            r_fast = heat_resistances[2] * resistance_scale
         v1_settled = r1 * current
         fraction = (1.0 - decay) * p.tau1_s / dt_s if dt_s > 0.0 else 1.0
         v1_mean = v1_settled + (v1_start - v1_settled) * fraction
@@ -649,6 +690,15 @@ class BatteryModel:
             time_remaining_s=self.time_remaining_s,
             charger_fault=self.charger_fault,
         )
+
+
+def _memory_fraction(dt_s, tau_s, decay):
+    """The fraction of a step at which a linearly changing resistance, seen through an RC pair's
+    exponential memory, has the value that gives the pair's exact end voltage."""
+    ratio = dt_s / tau_s
+    if ratio < 1e-4:
+        return 0.5 + ratio / 12.0
+    return 1.0 / (1.0 - decay) - 1.0 / ratio
 
 
 def _is_finite(value):

@@ -351,6 +351,8 @@ def from_mapping(values, base=None, origin='parameters'):
         except ParameterError as error:
             raise ParameterError('%s: %s' % (origin, error)) from None
     changes = {}
+    if ('ocv_soc' in values or 'ocv_voltage_v' in values) and 'ocv_charge_voltage_v' not in values:
+        changes['ocv_charge_voltage_v'] = ()   # a new OCV table without a charge branch: one curve, as before
     for key, value in values.items():
         if key == 'preset':
             continue
