@@ -351,7 +351,7 @@ def plot_against_measurements(params, data, output):
     from matplotlib import pyplot
 
     figure, axes = pyplot.subplots(2, 2, figsize=(13, 8.5), gridspec_kw={'width_ratios': [3, 2]})
-    (volts_axis, heat_axis), (charge_axis, current_axis) = axes
+    (volts_axis, heat_axis), (current_axis, charge_axis) = axes
     c20 = data.c20_discharge
     volts_axis.plot([-s.capacity_ah for s in c20], [s.voltage_v for s in c20], '.',
                     color='tab:green', markersize=1.5, label='C/20 (0.15 A) measured')
@@ -389,33 +389,43 @@ def plot_against_measurements(params, data, output):
     heat_axis.grid(alpha=0.3)
 
     colours = ('tab:blue', 'tab:orange', 'tab:purple', 'tab:brown')
+    bars = []
     for k, ((rest, run), (measured_cc, measured_cv), colour) in enumerate(
             zip(data.charges, data.charge_phases, colours), start=1):
         cc_s, cv_s, trace = simulated_charge(params, rest, run)
         minutes = [(s.time_s - rest.time_s) / 60.0 for s in run]
-        cv_text = 'never ends' if cv_s is None else '%+.1f %%' % (100 * (cv_s / measured_cv - 1))
-        label = 'charge %d: CC %+.1f %%, CV %s' % (k, 100 * (cc_s / measured_cc - 1), cv_text)
-        charge_axis.plot(minutes, [s.voltage_v for s in run], 'o', color=colour, markersize=2)
-        charge_axis.plot(minutes, [v for v, _ in trace], '-', color=colour, linewidth=1, label=label)
-        current_axis.plot(minutes, [s.current_a for s in run], 'o', color=colour, markersize=2)
-        current_axis.plot(minutes, [max(c, 1e-3) for _, c in trace], '-', color=colour, linewidth=1,
+        current_axis.plot(minutes, [s.current_a for s in run], 'o', color=colour, markersize=2.5)
+        model = [(m, c) for m, (_, c) in zip(minutes, trace) if c > 0.0]
+        current_axis.plot([m for m, _ in model], [c for _, c in model], '-', color=colour, linewidth=1.2,
                           label='charge %d' % k)
-        for axis in (charge_axis, current_axis):
-            axis.axvline(measured_cc / 60.0, color=colour, linestyle=':', linewidth=0.8)
-            axis.axvline((measured_cc + measured_cv) / 60.0, color=colour, linestyle=':', linewidth=0.8)
-    charge_axis.set_xlabel('time from the start of the charge (min)')
-    charge_axis.set_ylabel('terminal voltage (V)')
-    charge_axis.set_title('3 A CC-CV charges to 4.2 V / 50 mA from the rest voltage\'s SOC: '
-                          'dots measured, lines model,\ndotted lines: measured CC end and CV end; '
-                          'phase durations, model against measured', fontsize=9)
-    charge_axis.legend(fontsize=7, loc='lower right')
-    charge_axis.grid(alpha=0.3)
+        bars.append((k, colour, measured_cc, measured_cv, cc_s, cv_s))
     current_axis.set_yscale('log')
     current_axis.set_xlabel('time from the start of the charge (min)')
-    current_axis.set_ylabel('current (A, log scale)')
-    current_axis.set_title('Charge current: CC, then the CV taper', fontsize=10)
-    current_axis.legend(fontsize=7, loc='lower left')
+    current_axis.set_ylabel('charge current (A, log scale)')
+    current_axis.set_title('3 A CC-CV charges to 4.2 V, ending at 50 mA, from the rest voltage\'s SOC:\n'
+                           'current, dots measured, lines model', fontsize=10)
+    current_axis.legend(fontsize=8, loc='lower left')
     current_axis.grid(alpha=0.3, which='both')
+
+    height = 0.38
+    for row, (k, colour, measured_cc, measured_cv, cc_s, cv_s) in enumerate(bars):
+        for offset, (cc, cv, hatch, who) in enumerate(((measured_cc, measured_cv, '', 'measured'),
+                                                        (cc_s, cv_s or 0.0, '//', 'model'))):
+            y = row + offset * height
+            charge_axis.barh(y, cc / 60.0, height, color=colour, alpha=0.85, hatch=hatch, edgecolor='white')
+            charge_axis.barh(y, cv / 60.0, height, left=cc / 60.0, color=colour, alpha=0.4, hatch=hatch,
+                             edgecolor='white')
+            charge_axis.text(0.5, y, who, va='center', fontsize=7, color='white')
+        cv_text = 'never ends' if cv_s is None else '%+.1f %%' % (100 * (cv_s / measured_cv - 1))
+        charge_axis.text((measured_cc + measured_cv) / 60.0 + 1.0, row + height / 2,
+                         'CC %+.1f %%\nCV %s' % (100 * (cc_s / measured_cc - 1), cv_text), va='center', fontsize=8)
+    charge_axis.set_yticks([row + height / 2 for row in range(len(bars))])
+    charge_axis.set_yticklabels(['charge %d' % k for k, *_ in bars])
+    charge_axis.invert_yaxis()
+    charge_axis.set_xlim(0, 112)
+    charge_axis.set_xlabel('minutes: CC phase (dark), then CV phase (light); model hatched')
+    charge_axis.set_title('Phase durations, model against measured', fontsize=10)
+    charge_axis.grid(alpha=0.3, axis='x')
     figure.text(0.01, 0.005, 'Data: Kollmeyer, Vidal, Naguib, Skells (2020), LG 18650HG2 Li-ion Battery Data, '
                 'Mendeley Data V3, doi:10.17632/cp3473x7xv.3, CC BY 4.0 (cell 549)', fontsize=7, color='dimgrey')
     figure.tight_layout(rect=(0, 0.02, 1, 1))
