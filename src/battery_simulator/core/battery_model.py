@@ -108,6 +108,12 @@ class OcvCurve:
         """dOCV/dSOC at ``soc``, V per unit SOC."""
         return self._slopes[self._segment(soc)]
 
+    def slopes_beside(self, other, soc):
+        """(``other``'s slope, this curve's voltage, its slope) at ``soc``, with one table look-up."""
+        k = self._segment(soc)
+        offset = (0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)) - self.soc_points[k]
+        return other._slopes[k], self.voltages[k] + self._slopes[k] * offset, self._slopes[k]
+
     def voltage_beside(self, other, soc, weight):
         """``other``'s voltage plus ``weight`` times this curve's at ``soc`` (one table look-up: the
         two share their SOC points)."""
@@ -137,54 +143,45 @@ class ResistanceTable:
             return
         ones = (1.0,) * len(self.soc_points)
         factors = [tuple(t) or ones for t in (p.r0_soc_factor, p.r1_soc_factor, p.r_fast_soc_factor)]
-        # Per segment: (start SOC, the three factors there, their three slopes).
+        # Per segment: (start SOC, end SOC, the three factors at the start, their three slopes).
         self._segments = tuple(
-            (s0, tuple(f[k] for f in factors), tuple((f[k + 1] - f[k]) / (s1 - s0) for f in factors))
+            (s0, s1) + tuple(f[k] for f in factors) + tuple((f[k + 1] - f[k]) / (s1 - s0) for f in factors)
             for k, (s0, s1) in enumerate(zip(self.soc_points, self.soc_points[1:])))
         self._last = len(self._segments) - 1
 
     def at(self, soc, charging):
         """(r0, r1, r_fast) in ohm at ``soc`` for a charging or discharging current."""
-        base = self.charge if charging else self.discharge
-        if self.soc_points is None:
-            return base
-        start, factors, slopes, soc = self._segment(soc)
-        offset = soc - start
-        return (base[0] * (factors[0] + slopes[0] * offset), base[1] * (factors[1] + slopes[1] * offset),
-                base[2] * (factors[2] + slopes[2] * offset))
+        return self.along(soc, 0.0, (0.0, 0.0, 0.0), charging)
 
     def along(self, soc, soc_change, fractions, charging):
         """(r0, r1, r_fast) in ohm, each at ``soc`` plus its fraction of ``soc_change``."""
         base = self.charge if charging else self.discharge
         if self.soc_points is None:
             return base
-        start, factors, slopes, soc = self._segment(soc)
-        end = soc + soc_change
-        if end < start or (end > self.soc_points[self._segment_index(soc) + 1]):
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+        start, end, f0, f1, f2, s0, s1, s2 = self._segment(soc)
+        if not start <= soc + soc_change <= end:   # the step leaves its segment: one look-up each
             return tuple(b * self._factor(k, soc + f * soc_change) for k, (b, f) in enumerate(zip(base, fractions)))
-        return (base[0] * (factors[0] + slopes[0] * (soc + fractions[0] * soc_change - start)),
-                base[1] * (factors[1] + slopes[1] * (soc + fractions[1] * soc_change - start)),
-                base[2] * (factors[2] + slopes[2] * (soc + fractions[2] * soc_change - start)))
-
-    def _factor(self, which, soc):
-        start, factors, slopes, soc = self._segment(soc)
-        return factors[which] + slopes[which] * (soc - start)
-
-    def _segment_index(self, soc):
-        k = bisect_right(self.soc_points, soc) - 1
-        return k if k < self._last else self._last
+        offset = soc - start
+        return (base[0] * (f0 + s0 * (offset + fractions[0] * soc_change)),
+                base[1] * (f1 + s1 * (offset + fractions[1] * soc_change)),
+                base[2] * (f2 + s2 * (offset + fractions[2] * soc_change)))
 
     def r0_at(self, soc, charging):
         """r0 alone, ohm (see at)."""
         r0 = self.charge[0] if charging else self.discharge[0]
         if self.soc_points is None:
             return r0
-        start, factors, slopes, soc = self._segment(soc)
-        return r0 * (factors[0] + slopes[0] * (soc - start))
+        return r0 * self._factor(0, soc)
+
+    def _factor(self, which, soc):
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+        segment = self._segment(soc)
+        return segment[2 + which] + segment[5 + which] * (soc - segment[0])
 
     def _segment(self, soc):
-        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
-        return self._segments[self._segment_index(soc)] + (soc,)
+        k = bisect_right(self.soc_points, soc) - 1
+        return self._segments[k if k < self._last else self._last]
 
 
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
@@ -208,6 +205,8 @@ class BatteryModel:
         self._has_fast_pair = params.r_fast_ohm > 0.0
         self._step_decays = (None, None)   # (dt_s, its exponentials): steps mostly repeat their length
         self._scale_at = (None, 1.0)       # (temperature, the Arrhenius factor there)
+        self._hysteresis_for = (None, None)  # (current, h after this step at it), from the charger
+        self._termination_a = params.pack_termination_current_a
         self.mode = mode
         self.state_of_charge = float(state_of_charge)
         self.rc_voltage_v = 0.0       # voltage across the (slow) RC pair, per cell
@@ -433,7 +432,8 @@ class BatteryModel:
         fast_start = self.fast_rc_voltage_v
         self.fast_rc_voltage_v = fast_decay * fast_start + fast_gain * current
         if self._ocv_gap is not None and current != 0.0 and self.hysteresis != (1.0 if current > 0.0 else -1.0):
-            self.hysteresis = self._hysteresis_after(current, dt_s)
+            for_current, hysteresis = self._hysteresis_for
+            self.hysteresis = hysteresis if for_current == current else self._hysteresis_after(current, dt_s)
         self.cell_current_a = current
         if current < 0.0:
             discharged_ah = -current * dt_s / 3600.0
@@ -513,17 +513,18 @@ class BatteryModel:
         else:
             # The OCV also rises by h's move towards the charge branch: take h at
             # the end of the step for the CC current, then (if CV) for the CV current.
-            gap, gap_slope = self._ocv_gap.voltage(soc), self._ocv_gap.slope(soc)
+            slope, gap, gap_slope = self._ocv_gap.slopes_beside(self.ocv, soc)
             current = cell_demand
-            for _ in range(2):
-                weight = 0.5 * (1.0 + self._hysteresis_after(max(current, 0.0), dt_s))
-                cv_current = (headroom - weight * gap) / (
-                    resistance + (self.ocv.slope(soc) + weight * gap_slope) * soc_gain)
+            for _ in range(2 if self.hysteresis != 1.0 else 1):
+                hysteresis = self._hysteresis_after(current, dt_s) if current > 0.0 else self.hysteresis
+                self._hysteresis_for = (current, hysteresis)   # _advance's h if this current flows
+                weight = 0.5 * (1.0 + hysteresis)
+                cv_current = (headroom - weight * gap) / (resistance + (slope + weight * gap_slope) * soc_gain)
                 if cv_current >= cell_demand:
                     break
                 current = cv_current
         current = min(cell_demand, cv_current)
-        if current < cell_demand and current * p.cells_parallel <= p.pack_termination_current_a:
+        if current < cell_demand and current * p.cells_parallel <= self._termination_a:
             self._become_full()
             return 0.0
         self.status = Status.CHARGING
@@ -602,7 +603,8 @@ class BatteryModel:
     def _hysteresis_after(self, current, dt_s):
         """h after ``current`` (A per cell, not 0) held for ``dt_s``: exact in the charge put through."""
         target = 1.0 if current > 0.0 else -1.0
-        return target + (self.hysteresis - target) * math.exp(-abs(current) * dt_s * self._hysteresis_per_as)
+        after = target + (self.hysteresis - target) * math.exp(-abs(current) * dt_s * self._hysteresis_per_as)
+        return target if -1e-12 < after - target < 1e-12 else after   # settled: later steps skip the update
 
     def _update_capacity(self):
         self._capacity_as = self.params.cell_capacity_ah * 3600.0 * self.state_of_health
