@@ -57,7 +57,7 @@ def test_cv_steps_end_exactly_at_the_charge_voltage_with_both_pairs_and_hysteres
         model.step(10.0)
         if model.status is Status.CHARGING and model.current_a < 1.5:
             cv_steps += 1
-            assert model.cell_voltage_v == pytest.approx(4.2, abs=2e-4)
+            assert model.cell_voltage_v == pytest.approx(4.2, abs=2e-5)
     assert cv_steps > 10 and model.status is Status.FULL
 
 
