@@ -80,7 +80,8 @@ def test_a_hot_pack_reconnects_only_after_cooling_below_the_hysteresis():
 
 
 def test_rc_update_is_exact_for_a_short_time_constant_and_a_long_step():
-    params = replace(CELL, tau1_s=30.0, arrhenius_temperature_k=0.0)   # isolate the RC pair
+    params = replace(CELL, tau1_s=30.0, arrhenius_temperature_k=0.0, r_fast_ohm=0.0, resistance_soc=(),
+                     r0_soc_factor=(), r1_soc_factor=(), r_fast_soc_factor=())   # isolate the RC pair
     fine = held(params, 0.1, 100.0, current_a=-3.0)
     coarse = held(params, 100.0, 100.0, current_a=-3.0)
     assert coarse.voltage_v == pytest.approx(fine.voltage_v, abs=1e-4)

@@ -72,11 +72,12 @@ def test_set_temperature_at_its_bounds_is_taken(temperature_c):
     assert model.temperature_c == temperature_c
 
 
-SAVED = {'state_of_charge': 0.5, 'rc_voltage_v': 0.0, 'temperature_c': 25.0, 'discharged_ah': 0.0,
-         'state_of_health': 1.0}
+SAVED = {'state_of_charge': 0.5, 'rc_voltage_v': 0.0, 'fast_rc_voltage_v': 0.0, 'hysteresis': -1.0,
+         'temperature_c': 25.0, 'discharged_ah': 0.0, 'state_of_health': 1.0}
 
 
 @pytest.mark.parametrize('changes', [{'discharged_ah': -0.001}, {'rc_voltage_v': 1.5}, {'rc_voltage_v': -1.5},
+                                     {'fast_rc_voltage_v': 1.5}, {'hysteresis': 1.01}, {'hysteresis': -1.01},
                                      {'discharged_ah': float('nan')}, {'state_of_charge': float('inf')}])
 def test_restore_refuses_values_out_of_range(changes):
     saved = dict(SAVED, **changes)
@@ -87,12 +88,13 @@ def test_restore_refuses_values_out_of_range(changes):
 def test_restore_refuses_other_keys_and_names_the_right_ones():
     saved = {'state_of_charge': 0.5}
     assert error_of(BatteryModel(PLAIN).restore_state, saved) == (
-        "saved state {'state_of_charge': 0.5} is invalid: must have exactly discharged_ah, rc_voltage_v, "
-        "state_of_charge, state_of_health, temperature_c")
+        "saved state {'state_of_charge': 0.5} is invalid: must have exactly discharged_ah, fast_rc_voltage_v, "
+        "hysteresis, rc_voltage_v, state_of_charge, state_of_health, temperature_c "
+        "(fast_rc_voltage_v, hysteresis may be missing)")
 
 
 @pytest.mark.parametrize('changes', [{'discharged_ah': 0.0}, {'discharged_ah': 0.5}, {'rc_voltage_v': 1.0},
-                                     {'rc_voltage_v': -1.0}])
+                                     {'rc_voltage_v': -1.0}, {'fast_rc_voltage_v': -1.0}, {'hysteresis': 1.0}])
 def test_restore_takes_values_on_their_bounds(changes):
     model = BatteryModel(PLAIN, mode=Mode.IDLE)
     model.restore_state(dict(SAVED, **changes))

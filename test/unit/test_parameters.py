@@ -21,7 +21,7 @@ BAD_VALUES = [
 def test_invalid_value_names_parameter_value_and_rule(name, value):
     base = preset('lg_hg2_cell')
     if name in ('ocv_soc', 'ocv_voltage_v'):
-        base = replace(base, ocv_soc=(0.0, 0.3, 0.6, 1.0), ocv_voltage_v=(2.8, 3.6, 3.9, 4.2))
+        base = replace(base, ocv_soc=(0.0, 0.3, 0.6, 1.0), ocv_voltage_v=(2.8, 3.6, 3.9, 4.2), ocv_charge_voltage_v=())
     with pytest.raises(ParameterError) as error:
         replace(base, **{name: value})
     message = str(error.value)
@@ -31,7 +31,9 @@ def test_invalid_value_names_parameter_value_and_rule(name, value):
 def test_every_parameter_has_a_unit_or_is_a_count_or_text():
     units = ('_ah', '_v', '_ohm', '_s', '_a', '_w', '_c', '_k', '_j_per_k', '_w_per_k', '_w_per_mps', '_w_per_radps')
     unitless = {'name', 'cells_series', 'cells_parallel', 'ocv_soc', 'coulombic_efficiency',
-                'capacity_fade_per_cycle', 'initial_cycle_count', 'location', 'serial_number', 'source'}
+                'capacity_fade_per_cycle', 'initial_cycle_count', 'location', 'serial_number', 'source',
+                'resistance_soc', 'r0_soc_factor', 'r1_soc_factor', 'r_fast_soc_factor', 'r0_charge_factor',
+                'r1_charge_factor', 'r_fast_charge_factor'}
     for name in PARAMETER_NAMES:
         assert name in unitless or name.endswith(units), name
 

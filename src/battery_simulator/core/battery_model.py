@@ -1,12 +1,18 @@
 """An equivalent-circuit Li-ion pack model (no rospy).
 
 Each cell is an open-circuit voltage source OCV(SOC) with a series resistance R0
-and one RC pair (R1, tau1), a lumped thermal mass and Coulomb counting. All
-cells are equal, so the pack is one cell scaled: V x Ns, I / Np, Q x Np.
+and two RC pairs: a slow one (R1, tau1: solid-state diffusion) and an optional
+fast one (R_fast, tau_fast: charge transfer), a lumped thermal mass and Coulomb
+counting. The resistances may depend on SOC (factor tables) and on the
+current's direction; the OCV may have a charge branch above the discharge
+branch, with one hysteresis state h in [-1, 1] moving between them with the
+charge put through. All cells are equal, so the pack is one cell scaled:
+V x Ns, I / Np, Q x Np.
 
 Time is an argument (``step(dt_s)``), so runs are deterministic. Within a step
-the current is held constant and the RC voltage is updated exactly, so results
-do not depend on the step size. Currents are positive when charging, negative
+the current is held constant and the RC voltages and h are updated exactly
+(the resistances are taken at the step's starting SOC), so results hardly
+depend on the step size. Currents are positive when charging, negative
 when discharging (the sensor_msgs/BatteryState convention).
 
 The pack protection acts as a real BMS does, and within the step: the load is
@@ -58,6 +64,11 @@ _SELF_CLEARING = (CutOff.OVER_CURRENT, CutOff.POWER_LIMIT, CutOff.OVER_TEMPERATU
 PROTECTION_HYSTERESIS_K = 5.0
 
 
+#: saved-state keys added with the fast RC pair and the OCV hysteresis (issue 25),
+#: with the values a state saved before them resumes with
+SINCE_TWO_RC = {'fast_rc_voltage_v': 0.0, 'hysteresis': -1.0}
+
+
 class Health(enum.Enum):
     """Mapped to BatteryState.power_supply_health."""
 
@@ -84,23 +95,93 @@ class OcvCurve:
         self._last = len(self._slopes) - 1
 
     def _segment(self, soc):
-        return min(max(bisect_right(self.soc_points, soc) - 1, 0), self._last)
+        k = bisect_right(self.soc_points, soc) - 1
+        return 0 if k < 0 else (k if k < self._last else self._last)
 
     def voltage(self, soc):
         """OCV at ``soc`` (clamped to the table), V."""
         k = self._segment(soc)
-        soc = min(max(soc, 0.0), 1.0)
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
         return self.voltages[k] + self._slopes[k] * (soc - self.soc_points[k])
 
     def slope(self, soc):
         """dOCV/dSOC at ``soc``, V per unit SOC."""
         return self._slopes[self._segment(soc)]
 
+    def slopes_beside(self, other, soc):
+        """(``other``'s slope, this curve's voltage, its slope) at ``soc``, with one table look-up."""
+        k = self._segment(soc)
+        offset = (0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)) - self.soc_points[k]
+        return other._slopes[k], self.voltages[k] + self._slopes[k] * offset, self._slopes[k]
+
+    def voltage_beside(self, other, soc, weight):
+        """``other``'s voltage plus ``weight`` times this curve's at ``soc`` (one table look-up: the
+        two share their SOC points)."""
+        k = self._segment(soc)
+        offset = (0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)) - self.soc_points[k]
+        return (other.voltages[k] + other._slopes[k] * offset
+                + weight * (self.voltages[k] + self._slopes[k] * offset))
+
     def soc(self, voltage):
         """The SOC whose OCV is ``voltage`` (clamped to 0..1)."""
         k = min(max(bisect_right(self.voltages, voltage) - 1, 0), self._last)
         soc = self.soc_points[k] + (voltage - self.voltages[k]) / self._slopes[k]
         return min(max(soc, 0.0), 1.0)
+
+
+class ResistanceTable:
+    """R0, R1 and R_fast per cell at the reference temperature, by SOC and direction."""
+
+    def __init__(self, params):
+        p = params
+        self.discharge = (p.r0_ohm, p.r1_ohm, p.r_fast_ohm)
+        self.charge = (p.r0_ohm * p.r0_charge_factor, p.r1_ohm * p.r1_charge_factor,
+                       p.r_fast_ohm * p.r_fast_charge_factor)
+        #: None when no resistance depends on SOC
+        self.soc_points = tuple(p.resistance_soc) if p.resistance_soc else None
+        if self.soc_points is None:
+            return
+        ones = (1.0,) * len(self.soc_points)
+        factors = [tuple(t) or ones for t in (p.r0_soc_factor, p.r1_soc_factor, p.r_fast_soc_factor)]
+        # Per segment: (start SOC, end SOC, the three factors at the start, their three slopes).
+        self._segments = tuple(
+            (s0, s1) + tuple(f[k] for f in factors) + tuple((f[k + 1] - f[k]) / (s1 - s0) for f in factors)
+            for k, (s0, s1) in enumerate(zip(self.soc_points, self.soc_points[1:])))
+        self._last = len(self._segments) - 1
+
+    def at(self, soc, charging):
+        """(r0, r1, r_fast) in ohm at ``soc`` for a charging or discharging current."""
+        return self.along(soc, 0.0, (0.0, 0.0, 0.0), charging)
+
+    def along(self, soc, soc_change, fractions, charging):
+        """(r0, r1, r_fast) in ohm, each at ``soc`` plus its fraction of ``soc_change``."""
+        base = self.charge if charging else self.discharge
+        if self.soc_points is None:
+            return base
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+        start, end, f0, f1, f2, s0, s1, s2 = self._segment(soc)
+        if not start <= soc + soc_change <= end:   # the step leaves its segment: one look-up each
+            return tuple(b * self._factor(k, soc + f * soc_change) for k, (b, f) in enumerate(zip(base, fractions)))
+        offset = soc - start
+        return (base[0] * (f0 + s0 * (offset + fractions[0] * soc_change)),
+                base[1] * (f1 + s1 * (offset + fractions[1] * soc_change)),
+                base[2] * (f2 + s2 * (offset + fractions[2] * soc_change)))
+
+    def r0_at(self, soc, charging):
+        """r0 alone, ohm (see at)."""
+        r0 = self.charge[0] if charging else self.discharge[0]
+        if self.soc_points is None:
+            return r0
+        return r0 * self._factor(0, soc)
+
+    def _factor(self, which, soc):
+        soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+        segment = self._segment(soc)
+        return segment[2 + which] + segment[5 + which] * (soc - segment[0])
+
+    def _segment(self, soc):
+        k = bisect_right(self.soc_points, soc) - 1
+        return self._segments[k if k < self._last else self._last]
 
 
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
@@ -115,10 +196,22 @@ class BatteryModel:
         params = params if params is not None else BatteryParameters()
         _check_fraction('state_of_charge', state_of_charge)
         self.params = params
-        self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)
+        self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)   # the discharge branch
+        # The charge branch less the discharge branch (None: one OCV curve).
+        self._ocv_gap = OcvCurve(params.ocv_soc, [c - d for c, d in zip(
+            params.ocv_charge_voltage_v, params.ocv_voltage_v)]) if params.ocv_charge_voltage_v else None
+        self._hysteresis_per_as = 1.0 / (3600.0 * params.hysteresis_ah)
+        self._resistances = ResistanceTable(params)
+        self._has_fast_pair = params.r_fast_ohm > 0.0
+        self._step_decays = (None, None)   # (dt_s, its exponentials): steps mostly repeat their length
+        self._scale_at = (None, 1.0)       # (temperature, the Arrhenius factor there)
+        self._hysteresis_for = (None, None)  # (current, h after this step at it), from the charger
+        self._termination_a = params.pack_termination_current_a
         self.mode = mode
         self.state_of_charge = float(state_of_charge)
-        self.rc_voltage_v = 0.0       # voltage across the RC pair, per cell
+        self.rc_voltage_v = 0.0       # voltage across the (slow) RC pair, per cell
+        self.fast_rc_voltage_v = 0.0  # voltage across the fast RC pair, per cell
+        self.hysteresis = -1.0        # -1 on the discharge branch of the OCV, +1 on the charge branch
         self.cell_current_a = 0.0     # the current held over the last step
         self.temperature_c = self.initial_temperature_c
         self.discharged_ah = 0.0      # per cell, since start (for the cycle count)
@@ -163,7 +256,7 @@ class BatteryModel:
         """Put the pack where a test needs it; None leaves a value as it is.
 
         Raises ValueError (nothing changed) for a value out of range. The RC
-        pair is left settled, as after a long rest.
+        pairs are left settled, as after a long rest (the OCV stays on its branch).
         """
         if state_of_charge is not None:
             _check_fraction('state_of_charge', state_of_charge)
@@ -177,6 +270,7 @@ class BatteryModel:
         if state_of_charge is not None:
             self.state_of_charge = float(state_of_charge)
             self.rc_voltage_v = 0.0
+            self.fast_rc_voltage_v = 0.0
         if temperature_c is not None:
             self.temperature_c = float(temperature_c)
         if state_of_health is not None:
@@ -189,20 +283,30 @@ class BatteryModel:
     def export_state(self):
         """The state that survives a restart, as plain numbers (see restore_state)."""
         return {'state_of_charge': self.state_of_charge, 'rc_voltage_v': self.rc_voltage_v,
+                'fast_rc_voltage_v': self.fast_rc_voltage_v, 'hysteresis': self.hysteresis,
                 'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
                 'state_of_health': self.state_of_health}
 
     def restore_state(self, saved):
-        """Resume from ``export_state()`` output; ValueError (nothing changed) if it does not fit."""
-        if not isinstance(saved, dict) or set(saved) != set(self.export_state()):
-            raise ValueError('saved state %r is invalid: must have exactly %s'
-                             % (saved, ', '.join(sorted(self.export_state()))))
-        if not all(_is_finite(v) for v in saved.values()) or saved['discharged_ah'] < 0 \
-                or abs(saved['rc_voltage_v']) > 1.0:
+        """Resume from ``export_state()`` output; ValueError (nothing changed) if it does not fit.
+
+        A state saved by the single-RC model (no SINCE_TWO_RC keys) resumes with
+        the fast pair settled and the OCV on its discharge branch.
+        """
+        keys = set(self.export_state())
+        if not isinstance(saved, dict) or set(saved) not in (keys, keys - set(SINCE_TWO_RC)):
+            raise ValueError('saved state %r is invalid: must have exactly %s (%s may be missing)'
+                             % (saved, ', '.join(sorted(keys)), ', '.join(SINCE_TWO_RC)))
+        values = dict(SINCE_TWO_RC, **saved)
+        if not all(_is_finite(v) for v in values.values()) or values['discharged_ah'] < 0 \
+                or abs(values['rc_voltage_v']) > 1.0 or abs(values['fast_rc_voltage_v']) > 1.0 \
+                or abs(values['hysteresis']) > 1.0:
             raise ValueError('saved state %r is invalid: values out of range' % (saved,))
-        self.set_state(saved['state_of_charge'], saved['temperature_c'], saved['state_of_health'])
-        self.rc_voltage_v = float(saved['rc_voltage_v'])
-        self.discharged_ah = float(saved['discharged_ah'])
+        self.set_state(values['state_of_charge'], values['temperature_c'], values['state_of_health'])
+        self.rc_voltage_v = float(values['rc_voltage_v'])
+        self.fast_rc_voltage_v = float(values['fast_rc_voltage_v'])
+        self.hysteresis = float(values['hysteresis'])
+        self.discharged_ah = float(values['discharged_ah'])
         self._settle_status()
         self.step(0.0)
 
@@ -236,12 +340,12 @@ class BatteryModel:
             self._disconnect(CutOff.OVER_TEMPERATURE, Status.NOT_CHARGING)
 
     def _state(self):
-        return (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
-                self.state_of_health, self.status, self._capacity_as)
+        return (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
+                self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as)
 
     def _restore(self, state):
-        (self.state_of_charge, self.rc_voltage_v, self.temperature_c, self.discharged_ah,
-         self.state_of_health, self.status, self._capacity_as) = state
+        (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
+         self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as) = state
 
     def _trip(self):
         """The CutOff the pack protection would act on now, or None."""
@@ -279,13 +383,41 @@ class BatteryModel:
         p = self.params
         cell_demand = demand / p.cells_parallel
         resistance_scale = self._resistance_scale()
-        r0 = p.r0_ohm * resistance_scale
-        r1 = p.r1_ohm * resistance_scale
-        decay = math.exp(-dt_s / p.tau1_s)
+        step_dt_s, decays = self._step_decays
+        if dt_s != step_dt_s:
+            decay = math.exp(-dt_s / p.tau1_s)
+            fast_decay = math.exp(-dt_s / p.tau_fast_s) if self._has_fast_pair else 1.0
+            # Where in the step each resistance is taken when it changes with SOC: R0 at
+            # the end (the terminal voltage there), an RC pair at the moment whose value
+            # its exponential memory of a linear change equals.
+            fractions = (1.0, _memory_fraction(dt_s, p.tau1_s, decay),
+                         _memory_fraction(dt_s, p.tau_fast_s, fast_decay) if self._has_fast_pair else 0.5)
+            decays = (decay, fast_decay,
+                      math.exp(-dt_s * p.cell_heat_transfer_w_per_k / p.cell_heat_capacity_j_per_k), fractions)
+            self._step_decays = (dt_s, decays)
+        decay, fast_decay, thermal_decay, fractions = decays
+        by_soc = self._resistances.soc_points is not None
+        if not by_soc:
+            r0, r1, r_fast = self._resistances.at(self.state_of_charge, cell_demand > 0.0)
+        else:
+            # the SOC change of the demanded current (the charger may give less)
+            soc_change = (cell_demand * dt_s / self._capacity_as) if -math.inf < cell_demand < math.inf else 0.0
+            r0, r1, r_fast = self._resistances.along(self.state_of_charge, soc_change, fractions,
+                                                     cell_demand > 0.0)
+            # the heat's mean over the step: each at the middle
+            heat_resistances = self._resistances.along(self.state_of_charge, soc_change, (0.5, 0.5, 0.5),
+                                                       cell_demand > 0.0)
+        r0 = r0 * resistance_scale
+        r1 = r1 * resistance_scale
         rc_gain = r1 * (1.0 - decay)
+        if self._has_fast_pair:
+            r_fast = r_fast * resistance_scale
+            fast_gain = r_fast * (1.0 - fast_decay)
+        else:
+            fast_gain = 0.0
 
         if cell_demand > 0.0:
-            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, r0)
+            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0)
         elif cell_demand < 0.0:
             current = self._discharge_current(cell_demand)
         else:
@@ -297,6 +429,11 @@ class BatteryModel:
         soc = self.state_of_charge + efficiency * current * dt_s / self._capacity_as
         v1_start = self.rc_voltage_v
         self.rc_voltage_v = decay * v1_start + rc_gain * current
+        fast_start = self.fast_rc_voltage_v
+        self.fast_rc_voltage_v = fast_decay * fast_start + fast_gain * current
+        if self._ocv_gap is not None and current != 0.0 and self.hysteresis != (1.0 if current > 0.0 else -1.0):
+            for_current, hysteresis = self._hysteresis_for
+            self.hysteresis = hysteresis if for_current == current else self._hysteresis_after(current, dt_s)
         self.cell_current_a = current
         if current < 0.0:
             discharged_ah = -current * dt_s / 3600.0
@@ -304,18 +441,25 @@ class BatteryModel:
             self.state_of_health = max(MIN_STATE_OF_HEALTH, self.state_of_health
                                        - p.capacity_fade_per_cycle * discharged_ah / p.cell_capacity_ah)
             self._update_capacity()
-        self.state_of_charge = min(max(soc, 0.0), 1.0)
+        self.state_of_charge = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
         # Lumped thermal mass, exact for the heat held over the step; the RC
         # voltage's exact mean over the step gives its share of the heat.
+        if by_soc:
+            r0 = heat_resistances[0] * resistance_scale
+            r1 = heat_resistances[1] * resistance_scale
+            r_fast = heat_resistances[2] * resistance_scale
         v1_settled = r1 * current
         fraction = (1.0 - decay) * p.tau1_s / dt_s if dt_s > 0.0 else 1.0
         v1_mean = v1_settled + (v1_start - v1_settled) * fraction
         heat_w = current * current * r0 + current * v1_mean
+        if self._has_fast_pair:
+            fast_settled = r_fast * current
+            fraction = (1.0 - fast_decay) * p.tau_fast_s / dt_s if dt_s > 0.0 else 1.0
+            heat_w += current * (fast_settled + (fast_start - fast_settled) * fraction)
         conductance = p.cell_heat_transfer_w_per_k
         settled_c = p.ambient_temperature_c + heat_w / conductance
-        self.temperature_c = settled_c + (self.temperature_c - settled_c) * math.exp(
-            -dt_s * conductance / p.cell_heat_capacity_j_per_k)
+        self.temperature_c = settled_c + (self.temperature_c - settled_c) * thermal_decay
 
         if self.status is Status.CHARGING and self.state_of_charge >= 1.0:
             self._become_full()
@@ -340,15 +484,15 @@ class BatteryModel:
         cell_power = power_w / (p.cells_series * p.cells_parallel)
         if cell_power <= 0.0:
             return -current_a
-        emf = self.ocv.voltage(self.state_of_charge) + self.rc_voltage_v
-        r0 = p.r0_ohm * self._resistance_scale()
+        emf = self.open_circuit_voltage_v + self.rc_voltage_v + self.fast_rc_voltage_v
+        r0 = self._resistances.r0_at(self.state_of_charge, False) * self._resistance_scale()
         discriminant = (emf - r0 * cell_current) ** 2 - 4.0 * r0 * cell_power
         if discriminant < 0.0 or emf <= 0.0:
             return -math.inf
         cell_load = (emf + r0 * cell_current - math.sqrt(discriminant)) / (2.0 * r0)
         return -cell_load * p.cells_parallel
 
-    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, r0):
+    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0):
         """CC up to the charge voltage, then CV with the current tapering."""
         if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
             self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
@@ -361,10 +505,26 @@ class BatteryModel:
         soc_gain = p.coulombic_efficiency * dt_s / self._capacity_as
         # The current that ends the step exactly at the charge voltage
         # (implicit in SOC, so large steps stay stable).
-        headroom = p.cell_charge_voltage_v - self.ocv.voltage(soc) - decay * self.rc_voltage_v
-        cv_current = headroom / (r0 + rc_gain + self.ocv.slope(soc) * soc_gain)
+        headroom = (p.cell_charge_voltage_v - self.ocv.voltage(soc) - decay * self.rc_voltage_v
+                    - fast_decay * self.fast_rc_voltage_v)
+        resistance = r0 + rc_gain + fast_gain
+        if self._ocv_gap is None:
+            cv_current = headroom / (resistance + self.ocv.slope(soc) * soc_gain)
+        else:
+            # The OCV also rises by h's move towards the charge branch: take h at
+            # the end of the step for the CC current, then (if CV) for the CV current.
+            slope, gap, gap_slope = self._ocv_gap.slopes_beside(self.ocv, soc)
+            current = cell_demand
+            for _ in range(2 if self.hysteresis != 1.0 else 1):
+                hysteresis = self._hysteresis_after(current, dt_s) if current > 0.0 else self.hysteresis
+                self._hysteresis_for = (current, hysteresis)   # _advance's h if this current flows
+                weight = 0.5 * (1.0 + hysteresis)
+                cv_current = (headroom - weight * gap) / (resistance + (slope + weight * gap_slope) * soc_gain)
+                if cv_current >= cell_demand:
+                    break
+                current = cv_current
         current = min(cell_demand, cv_current)
-        if current < cell_demand and current * p.cells_parallel <= p.pack_termination_current_a:
+        if current < cell_demand and current * p.cells_parallel <= self._termination_a:
             self._become_full()
             return 0.0
         self.status = Status.CHARGING
@@ -404,10 +564,11 @@ class BatteryModel:
 
     def _become_full(self):
         # A fuel gauge calls the end of the CV taper 100 %. The terminal
-        # voltage stays continuous: the RC pair takes up the OCV step.
-        self.rc_voltage_v += self.ocv.voltage(self.state_of_charge) - self.ocv.voltage(1.0)
-        self.status = Status.FULL
+        # voltage stays continuous: the slow RC pair takes up the OCV step.
+        ocv_before = self.open_circuit_voltage_v
         self.state_of_charge = 1.0
+        self.rc_voltage_v += ocv_before - self.open_circuit_voltage_v
+        self.status = Status.FULL
         self.cell_current_a = 0.0
 
     def _settle_status(self):
@@ -428,11 +589,22 @@ class BatteryModel:
             self.status = Status.NOT_CHARGING
 
     def _resistance_scale(self):
+        temperature_c, scale = self._scale_at
+        if self.temperature_c == temperature_c:
+            return scale
         p = self.params
         if not p.arrhenius_temperature_k:
             return 1.0
-        return math.exp(p.arrhenius_temperature_k * (
+        scale = math.exp(p.arrhenius_temperature_k * (
             1.0 / (self.temperature_c + _KELVIN) - 1.0 / (p.reference_temperature_c + _KELVIN)))
+        self._scale_at = (self.temperature_c, scale)
+        return scale
+
+    def _hysteresis_after(self, current, dt_s):
+        """h after ``current`` (A per cell, not 0) held for ``dt_s``: exact in the charge put through."""
+        target = 1.0 if current > 0.0 else -1.0
+        after = target + (self.hysteresis - target) * math.exp(-abs(current) * dt_s * self._hysteresis_per_as)
+        return target if -1e-12 < after - target < 1e-12 else after   # settled: later steps skip the update
 
     def _update_capacity(self):
         self._capacity_as = self.params.cell_capacity_ah * 3600.0 * self.state_of_health
@@ -451,11 +623,19 @@ class BatteryModel:
         return self.params.initial_cycle_count + self.discharged_ah / self.params.cell_capacity_ah
 
     @property
+    def open_circuit_voltage_v(self):
+        """OCV of one cell now, V: on the discharge branch, the charge branch or between (hysteresis)."""
+        if self._ocv_gap is None:
+            return self.ocv.voltage(self.state_of_charge)
+        return self._ocv_gap.voltage_beside(self.ocv, self.state_of_charge, 0.5 * (1.0 + self.hysteresis))
+
+    @property
     def cell_voltage_v(self):
         """Terminal voltage of one cell under the present current, V."""
         current = self.cell_current_a
-        return (self.ocv.voltage(self.state_of_charge) + self.rc_voltage_v
-                + current * self.params.r0_ohm * self._resistance_scale())
+        r0 = self._resistances.r0_at(self.state_of_charge, current > 0.0)
+        return (self.open_circuit_voltage_v + self.rc_voltage_v + self.fast_rc_voltage_v
+                + current * r0 * self._resistance_scale())
 
     @property
     def voltage_v(self):
@@ -517,6 +697,15 @@ class BatteryModel:
             time_remaining_s=self.time_remaining_s,
             charger_fault=self.charger_fault,
         )
+
+
+def _memory_fraction(dt_s, tau_s, decay):
+    """The fraction of a step at which a linearly changing resistance, seen through an RC pair's
+    exponential memory, has the value that gives the pair's exact end voltage."""
+    ratio = dt_s / tau_s
+    if ratio < 1e-4:
+        return 0.5 + ratio / 12.0
+    return 1.0 / (1.0 - decay) - 1.0 / ratio
 
 
 def _is_finite(value):

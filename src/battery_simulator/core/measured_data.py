@@ -131,3 +131,56 @@ def charge_time_error(params, rest, run):
     start_soc = OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v)
     simulated_s = time_to_full(BatteryModel(test, state_of_charge=start_soc, mode=Mode.IDLE))
     return simulated_s / (run[-1].time_s - rest.time_s) - 1.0
+
+
+def measured_charge_phases(rest, run):
+    """(CC seconds, CV seconds) of a measured CC-CV charge (see charge_runs).
+
+    The CC phase ends where the voltage of its last sample, rising at the slope
+    of its last two, reaches the CV voltage (the log has a row a minute).
+    """
+    cc_current = run[0].current_a
+    last = max(k for k, s in enumerate(run) if s.current_a >= 0.995 * cc_current)
+    cv_voltage = max(s.voltage_v for s in run)
+    end = run[last]
+    before = run[last - 1] if last > 0 else rest
+    after = run[min(last + 1, len(run) - 1)]
+    slope = (end.voltage_v - before.voltage_v) / (end.time_s - before.time_s)
+    cc_end_s = end.time_s + (cv_voltage - end.voltage_v) / slope if slope > 0.0 else end.time_s
+    cc_end_s = min(max(cc_end_s, end.time_s), after.time_s)
+    return cc_end_s - rest.time_s, run[-1].time_s - cc_end_s
+
+
+def simulated_charge(params, rest, run, max_step_s=2.0):
+    """The model's own CC-CV charge against a measured one (see charge_runs): at
+    the run's CC current and end current and the rest's temperature, from the SOC
+    the rest voltage gives on the OCV table.
+
+    Returns (CC seconds, CV seconds or None if it never ends, [(voltage V, current A)
+    at each sample's time])."""
+    test = replace(params, ambient_temperature_c=rest.temperature_c, charge_current_a=run[0].current_a,
+                   termination_current_a=run[-1].current_a)
+    start_soc = OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v)
+    model = BatteryModel(test, state_of_charge=start_soc, mode=Mode.CHARGE)
+    cc_current = test.charge_current_a
+    elapsed, cc_end_s, full_s, trace = 0.0, None, None, []
+    for sample in run + [sample._replace(time_s=sample.time_s + 7200.0) for sample in run[-1:]]:
+        remaining = sample.time_s - rest.time_s - elapsed
+        steps = max(1, int(math.ceil(remaining / max_step_s)))
+        for _ in range(steps):
+            model.step(remaining / steps)
+            elapsed += remaining / steps
+            if cc_end_s is None and model.current_a < 0.999 * cc_current:
+                cc_end_s = elapsed - remaining / steps / 2.0
+            if full_s is None and model.status is Status.FULL:
+                full_s = elapsed - remaining / steps / 2.0
+        trace.append((model.voltage_v, model.current_a))
+    cc_end_s = elapsed if cc_end_s is None else cc_end_s
+    return cc_end_s, None if full_s is None else full_s - cc_end_s, trace[:-1]
+
+
+def charge_phase_errors(params, rest, run):
+    """Relative errors of the model's CC and CV phase durations against one measured charge."""
+    measured_cc, measured_cv = measured_charge_phases(rest, run)
+    cc_s, cv_s, _ = simulated_charge(params, rest, run)
+    return cc_s / measured_cc - 1.0, (math.inf if cv_s is None else cv_s / measured_cv - 1.0)

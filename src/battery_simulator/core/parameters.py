@@ -64,8 +64,31 @@ class BatteryParameters:
     r0_ohm: float = 0.02
     #: RC-pair (polarisation) resistance per cell at the reference temperature, ohm
     r1_ohm: float = 0.015
-    #: RC-pair time constant, s
+    #: RC-pair time constant, s (with a fast pair beside it, this is the slow one: diffusion)
     tau1_s: float = 60.0
+    #: a second, fast RC pair (charge transfer) per cell at the reference temperature, ohm (0 = none)
+    r_fast_ohm: float = 0.0
+    #: the fast RC pair's time constant, s
+    tau_fast_s: float = 20.0
+    #: SOC grid (0..1, strictly increasing) of the resistance factor tables; empty: no SOC dependence
+    resistance_soc: tuple = ()
+    #: r0_ohm is multiplied by these factors at the ``resistance_soc`` points (linear between); empty = 1
+    r0_soc_factor: tuple = ()
+    #: r1_ohm is multiplied by these factors at the ``resistance_soc`` points; empty = 1
+    r1_soc_factor: tuple = ()
+    #: r_fast_ohm is multiplied by these factors at the ``resistance_soc`` points; empty = 1
+    r_fast_soc_factor: tuple = ()
+    #: while charging r0 is multiplied by this as well (the discharge direction is 1)
+    r0_charge_factor: float = 1.0
+    #: while charging r1 is multiplied by this as well
+    r1_charge_factor: float = 1.0
+    #: while charging r_fast is multiplied by this as well
+    r_fast_charge_factor: float = 1.0
+    #: open-circuit voltage of the charge branch at each ``ocv_soc`` point, V per cell, at or above
+    #: ``ocv_voltage_v`` (then the discharge branch); empty: one OCV curve for both directions
+    ocv_charge_voltage_v: tuple = ()
+    #: charge per cell that moves the OCV 63 % of the way from one branch to the other, Ah
+    hysteresis_ah: float = 0.1
     #: fraction of the charge put in that is stored, 0 < eta <= 1
     coulombic_efficiency: float = 0.999
     #: constant-voltage limit per cell, V (must lie within the OCV table)
@@ -174,6 +197,12 @@ _RULES = (
     ('r0_ohm', _positive, 'a number > 0'),
     ('r1_ohm', _non_negative, 'a number >= 0'),
     ('tau1_s', _positive, 'a number > 0'),
+    ('r_fast_ohm', _non_negative, 'a number >= 0'),
+    ('tau_fast_s', _positive, 'a number > 0'),
+    ('r0_charge_factor', _positive, 'a number > 0'),
+    ('r1_charge_factor', _positive, 'a number > 0'),
+    ('r_fast_charge_factor', _positive, 'a number > 0'),
+    ('hysteresis_ah', _positive, 'a number > 0'),
     ('coulombic_efficiency', lambda v: _is_number(v) and 0 < v <= 1, 'a number in (0, 1]'),
     ('cell_charge_voltage_v', _positive, 'a number > 0'),
     ('cell_cutoff_voltage_v', _positive, 'a number > 0'),
@@ -220,6 +249,8 @@ def validate(params):
         if not check(getattr(params, name)):
             _fail(name, getattr(params, name), allowed)
     _validate_ocv_table(params)
+    _validate_charge_branch(params)
+    _validate_resistance_tables(params)
     if params.cell_cutoff_voltage_v >= params.cell_charge_voltage_v:
         _fail('cell_cutoff_voltage_v', params.cell_cutoff_voltage_v,
               'below cell_charge_voltage_v (%g V)' % params.cell_charge_voltage_v)
@@ -295,8 +326,35 @@ def _validate_ocv_table(params):
               'at or above the OCV table start (%g V)' % volts[0])
 
 
+def _validate_charge_branch(params):
+    volts = params.ocv_charge_voltage_v
+    if not isinstance(volts, (tuple, list)) or not all(_is_number(x) for x in volts):
+        _fail('ocv_charge_voltage_v', volts, 'a list of numbers (empty: no charge branch)')
+    if volts and len(volts) != len(params.ocv_soc):
+        _fail('ocv_charge_voltage_v', volts, 'empty or as many entries as ocv_soc (%d)' % len(params.ocv_soc))
+    if any(b <= a for a, b in zip(volts, volts[1:])):
+        _fail('ocv_charge_voltage_v', volts, 'strictly increasing')
+    if any(c < d for c, d in zip(volts, params.ocv_voltage_v)):
+        _fail('ocv_charge_voltage_v', volts, 'at or above ocv_voltage_v (the discharge branch) at every point')
+
+
+def _validate_resistance_tables(params):
+    grid = params.resistance_soc
+    if not isinstance(grid, (tuple, list)) or not all(_is_number(x) for x in grid):
+        _fail('resistance_soc', grid, 'a list of numbers (empty: resistances independent of SOC)')
+    if grid and (len(grid) < 2 or grid[0] != 0 or grid[-1] != 1 or any(b <= a for a, b in zip(grid, grid[1:]))):
+        _fail('resistance_soc', grid, 'empty or strictly increasing from 0 to 1')
+    for name in ('r0_soc_factor', 'r1_soc_factor', 'r_fast_soc_factor'):
+        table = getattr(params, name)
+        if not isinstance(table, (tuple, list)) or not all(_positive(x) for x in table):
+            _fail(name, table, 'a list of numbers > 0 (empty: 1 at every SOC)')
+        if table and len(table) != len(grid):
+            _fail(name, table, 'empty or as many entries as resistance_soc (%d)' % len(grid))
+
+
 PARAMETER_NAMES = tuple(f.name for f in fields(BatteryParameters))
-_TABLES = ('ocv_soc', 'ocv_voltage_v')
+_TABLES = ('ocv_soc', 'ocv_voltage_v', 'ocv_charge_voltage_v', 'resistance_soc', 'r0_soc_factor',
+           'r1_soc_factor', 'r_fast_soc_factor')
 _WHOLE_NUMBERS = ('cells_series', 'cells_parallel')
 _NUMBERS = tuple(f.name for f in fields(BatteryParameters) if f.type is float)   # numeric text read as numbers
 
@@ -321,6 +379,8 @@ def from_mapping(values, base=None, origin='parameters'):
         except ParameterError as error:
             raise ParameterError('%s: %s' % (origin, error)) from None
     changes = {}
+    if ('ocv_soc' in values or 'ocv_voltage_v' in values) and 'ocv_charge_voltage_v' not in values:
+        changes['ocv_charge_voltage_v'] = ()   # a new OCV table without a charge branch: one curve, as before
     for key, value in values.items():
         if key == 'preset':
             continue
