@@ -233,7 +233,7 @@ def test_cli_charge_from_20_percent_writes_the_usual_csv_and_says_how_long(tmp_p
     assert max(float(r['current']) for r in rows) == pytest.approx(1.5)
     expected_s = predict(pack(20, Mode.IDLE), [], 100.0).charge_time_s
     assert float(rows[-1]['time']) == pytest.approx(expected_s, abs=0.01)
-    assert result.stderr == ('battery_replay: lg_hg2_3s1p charged at 1.5 A from 20 %% to Full in %.0f s (1 h 33 min)\n'
+    assert result.stderr == ('battery_replay: lg_hg2_3s1p charged at 1.5 A from 20 %% to Full in %.0f s (1 h 39 min)\n'
                              % expected_s)
     assert len(rows) < 500, 'large steps'
 
