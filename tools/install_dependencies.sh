@@ -1,6 +1,6 @@
 #!/bin/bash
 # Install what battery_simulator needs from the distribution's own archive
-# (Debian 12 or Ubuntu 20.04: ROS 1 as ordinary packages). Idempotent: when
+# (Debian 12: ROS 1 as ordinary packages). Idempotent: when
 # everything is installed it only checks, in about a second.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
