@@ -141,6 +141,8 @@ def test_time_remaining_to_empty_or_full_at_the_present_current():
     assert model.time_remaining_s({'charge': 1.5, 'capacity': 3.0, 'current': 0.0}, 'Discharging') is None
     assert model.time_remaining_s({'charge': NAN, 'capacity': 3.0, 'current': -1.0}, 'Discharging') is None
     assert model.time_remaining_s({'charge': 3.0, 'capacity': 3.0, 'current': 0.0}, 'Full') is None
+    # a driver that sends 0 for "not measured" charge and capacity: unknown, not "0 s"
+    assert model.time_remaining_s({'charge': 0.0, 'capacity': 0.0, 'current': -1.0}, 'Discharging') is None
     dashboard = DashboardModel(history_s=600)
     dashboard.on_battery(TOPIC, battery(), 0.0)
     dashboard.on_sim_state(TOPIC, {'charging_state': 'Discharging', 'time_remaining_s': 600.0}, 0.0)
@@ -264,8 +266,16 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         for headers in ({'Host': 'evil.example:%d' % self.get_http_port()},
                         {'Host': self.host(), 'Origin': 'http://evil.example'}):
             for path in ('/', '/battery', '/static/dashboard.js', '/api/batteries', '/live',
-                         '/javascript/chart.js/chart.min.js'):
+                         '/javascript/chart.js/chart.min.js', '/no/such/page'):
                 assert self.fetch(path, headers=headers).code == 403, (path, headers)
+        assert self.fetch('/no/such/page', headers={'Host': self.host()}).code == 404
+
+    def test_a_read_only_page_has_no_control_element_at_all(self):
+        page = self.fetch('/battery?topic=%2Frobot3%2Fbattery_status', headers={'Host': self.host()}).body
+        assert b'<button' not in page and b'<input' not in page and b'data-chart="percentage"' in page
+        self.hub.allow_control = True
+        page = self.fetch('/battery?topic=%2Frobot3%2Fbattery_status', headers={'Host': self.host()}).body
+        assert b'<button' in page and b'name="percentage"' in page
 
     def test_controls_are_off_unless_allowed(self):
         response = self.fetch('/api/control', method='POST', headers={'Host': self.host(),
@@ -281,6 +291,8 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
             return self.fetch('/api/control', method='POST', headers=dict(headers, **(extra or {})),
                               body=json.dumps(body))
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 300}).code == 400
+        for topic in ([TOPIC], {'a': 1}, None, 3):   # not a name: refused, no 500
+            assert post({'topic': topic, 'action': 'set_charging', 'charging': True}).code == 400, topic
         assert post({'topic': '/nobody/battery_status', 'action': 'set_charging', 'charging': True}).code == 404
         assert post({'topic': TOPIC, 'action': 'set_charging', 'charging': True},
                     {'Origin': 'http://evil.example'}).code == 403

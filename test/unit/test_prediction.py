@@ -258,3 +258,11 @@ def test_cli_charge_or_a_profile_not_both(tmp_path):
     result = run_cli('--charge', '1.5', tmp_path / 'p.csv')
     assert result.returncode == 2
     assert result.stderr.splitlines()[-1] == 'battery_replay.py: error: give a profile CSV or --charge, not both'
+
+
+def test_neighbouring_segments_of_one_load_are_one_segment():
+    # 3600 one-second segments of one load cost one hour's few steps, not 3600 (the 50 ms budget)
+    model = BatteryModel(preset('lg_hg2_3s1p'), 0.9)
+    split = predict(model, plan_from_arrays([1.0] * 3600, [0.5] * 3600, [], [0.2] * 3600, [-0.1] * 3600))
+    whole = predict(model, plan_from_arrays([3600.0], [0.5], [], [0.2], [0.1]))
+    assert split == whole

@@ -381,3 +381,12 @@ def test_ctrl_c_while_reading_the_profile_exits_130_without_a_traceback(tmp_path
     monkeypatch.setattr('battery_simulator.core.replay.read_profile', interrupted)
     result = run_cli(profile_file(tmp_path))
     assert (result.returncode, result.stderr) == (130, 'battery_replay: interrupted\n')
+
+
+@pytest.mark.parametrize('args', [('--charge', 'abc'), ('--charge', '-1'), ('--charge', 'nan'),
+                                  ('--charge', '1', '--soc', '2'), ('--max-step', 'x', 'profile.csv')])
+def test_a_bad_argument_is_one_line_naming_it(args):
+    result = run_cli(*args)
+    assert result.returncode == 2 and result.stdout == ''
+    assert result.stderr.count('\n') == 1 and result.stderr.startswith('battery_replay.py: error: argument --')
+    assert '_current' not in result.stderr and '_step' not in result.stderr

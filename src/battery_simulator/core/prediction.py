@@ -155,15 +155,30 @@ def predict(model, segments, charge_to_percentage=math.nan, observe=None):
     segments = tuple(segments)
     check_plan(model, segments, charge_to_percentage)
     run = _Run(copy.deepcopy(model), observe)
-    for segment in segments:
-        if segment.duration_s > 0.0:
-            run.discharge(segment)
+    for segment in _merged(segments):
+        run.discharge(segment)
     end = run.model.snapshot()
     charge_time_s = math.nan if math.isnan(charge_to_percentage) else run.charge(charge_to_percentage)
     return Prediction(feasible=math.isnan(run.cut_off_at_s), end_percentage=end.percentage,
                       end_voltage_v=end.voltage_v, min_voltage_v=run.min_voltage_v,
                       max_temperature_c=run.max_temperature_c, cut_off_at_s=run.cut_off_at_s,
                       charge_time_s=charge_time_s)
+
+
+def _merged(segments):
+    """The plan with empty segments left out and neighbours of the same load joined (3600 one-second
+    segments of one load are one step of an hour, not 3600 steps)."""
+    merged = []
+    for segment in segments:
+        if segment.duration_s <= 0.0:
+            continue
+        if merged and tuple(merged[-1][1:]) == (segment.current_a, segment.power_w, abs(segment.speed_mps),
+                                         abs(segment.turn_radps)):
+            merged[-1][0] += segment.duration_s
+        else:
+            merged.append([segment.duration_s, segment.current_a, segment.power_w, abs(segment.speed_mps),
+                           abs(segment.turn_radps)])
+    return [Segment(*values) for values in merged]
 
 
 class _Run:

@@ -121,29 +121,43 @@ def charge(params, charge_current_a, state_of_charge=0.0):
     return rows, result.charge_time_s
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An error is one line naming the argument (argparse would print the usage block first)."""
+
+    def error(self, message):
+        self.exit(2, '%s: error: %s\n' % (self.prog, message))
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError('%r is not a number' % text) from None
+
+
 def _fraction(text):
-    value = float(text)
-    if not 0.0 <= value <= 1.0:
+    value = _number(text)
+    if not 0.0 <= value <= 1.0:   # also NaN
         raise argparse.ArgumentTypeError('%s is not in [0, 1] (a fraction: 0.5 = half full)' % text)
     return value
 
 
 def _current(text):
-    value = float(text)
+    value = _number(text)
     if not (math.isfinite(value) and value > 0.0):
         raise argparse.ArgumentTypeError('%s is not a current in amperes > 0' % text)
     return value
 
 
 def _step(text):
-    value = float(text)
+    value = _number(text)
     if not (math.isfinite(value) and value >= MIN_STEP_S):
         raise argparse.ArgumentTypeError('%s is not a number of seconds >= %g' % (text, MIN_STEP_S))
     return value
 
 
 def parse_arguments(argv):
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog='battery_replay.py',
         description='Replay a CSV load profile through the battery model, or a CC-CV charge (--charge).')
     parser.add_argument('profile', nargs='?', help='CSV with time (s) and current (A) or power (W)')

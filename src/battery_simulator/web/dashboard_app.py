@@ -12,6 +12,7 @@ checked values.
 import json
 import math
 import os
+import re
 import socket
 import threading
 import time
@@ -26,6 +27,7 @@ from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
 STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
 CHART_JS_DIR = '/usr/share/javascript/chart.js'
 PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
+CONTROLS_SECTION = re.compile(r'\s*<section class="controls".*?</section>', re.S)
 MAX_UNSENT_PUSHES = 240        # a page this many pushes (a minute) behind is closed, not buffered for
 SECURITY_HEADERS = {
     'Content-Security-Policy': "default-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
@@ -191,8 +193,19 @@ class PageHandler(_Guard, tornado.web.RequestHandler):
     def get(self):
         self.set_header('Content-Type', 'text/html; charset=utf-8')
         self.set_header('Cache-Control', 'no-cache')
-        with open(os.path.join(STATIC_DIR, self.page), 'rb') as stream:
-            self.write(stream.read())
+        with open(os.path.join(STATIC_DIR, self.page), encoding='utf-8') as stream:
+            page = stream.read()
+        if not self.settings['hub'].allow_control:   # read-only: no control element in the page at all
+            page = CONTROLS_SECTION.sub('', page)
+        self.write(page)
+
+
+class NotFoundHandler(_Guard, tornado.web.RequestHandler):
+    """Any other path: 403 for a foreign Host or Origin (as everywhere), else 404."""
+
+    def prepare(self):
+        super().prepare()
+        raise tornado.web.HTTPError(404)
 
 
 class GuardedStaticHandler(_Guard, tornado.web.StaticFileHandler):
@@ -246,6 +259,9 @@ class ControlHandler(ApiHandler):
             self.send_json({'success': False, 'message': str(error)}, 400)
             return
         topic = body.get('topic')
+        if not isinstance(topic, str):
+            self.send_json({'success': False, 'message': 'topic must be a topic name'}, 400)
+            return
         with hub.lock:
             record = hub.model.records.get(topic)
             has_controls = record is not None and record.has_controls
@@ -306,7 +322,8 @@ def make_app(hub, host, port):
         (r'/api/history', HistoryHandler),
         (r'/api/control', ControlHandler),
         (r'/live', LiveSocket),
-    ], hub=hub, own_addresses=own_addresses(host, port), websocket_ping_interval=20)
+    ], hub=hub, own_addresses=own_addresses(host, port), websocket_ping_interval=20,
+        default_handler_class=NotFoundHandler)
 
 
 def start_pushing(hub):

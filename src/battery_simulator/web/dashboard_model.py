@@ -100,13 +100,14 @@ def status_name(power_supply_status, sim_charging_state=None, percentage=None):
 
 def time_remaining_s(values, status):
     """To empty while discharging, to full while charging, at the present current (as the
-    simulator computes it); None when the BatteryState lacks charge, capacity or current."""
+    simulator computes it); None when the BatteryState lacks charge, capacity or current (a
+    capacity of 0, as many drivers send for "not measured", counts as lacking)."""
     charge, capacity, current = values.get('charge'), values.get('capacity'), values.get('current')
-    if not (finite(charge) and finite(current)):
+    if not (finite(charge) and finite(current) and finite(capacity) and capacity > 0.0):
         return None
     if status == 'Discharging' and current < 0.0:
         return charge / -current * 3600.0
-    if status == 'Charging' and current > 0.0 and finite(capacity) and capacity >= charge:
+    if status == 'Charging' and current > 0.0 and capacity >= charge:
         return (capacity - charge) / current * 3600.0
     return None
 

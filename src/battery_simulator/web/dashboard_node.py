@@ -192,10 +192,14 @@ def main():
         try:
             make_app(hub, settings['host'], settings['port']).listen(settings['port'], address=settings['host'])
         except OSError as error:
-            reason = 'in use' if error.errno == errno.EADDRINUSE else 'not available (%s)' % error.strerror
-            exit_on_startup_error(StartupError('parameter %s = %d is invalid: %s:%d is %s; choose another port'
-                                               % (rospy.resolve_name('~port'), settings['port'], settings['host'],
-                                                  settings['port'], reason)),
+            if error.errno == errno.EADDRINUSE:
+                problem = 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (
+                    rospy.resolve_name('~port'), settings['port'], settings['host'], settings['port'])
+            else:   # an address this machine has not (or a name that does not resolve)
+                problem = 'parameter %s = %r is invalid: cannot listen on %s:%d (%s)' % (
+                    rospy.resolve_name('~host'), settings['host'], settings['host'], settings['port'],
+                    error.strerror or error)
+            exit_on_startup_error(StartupError(problem),
                                   stop_launch=False)   # dashboard.launch's required="true" ends a launch of it alone
         threading.Thread(target=node.scan_loop, name='dashboard_scan', daemon=True).start()
         start_pushing(hub)
