@@ -122,13 +122,17 @@ class TestDashboard(unittest.TestCase):
         self.assertEqual(topics[:len(ROBOTS)], [topic_of(robot) for robot in ROBOTS])
         self.assertEqual(topics, sorted(topics), 'sorted by name')
         for robot in ROBOTS:
-            expected = lambda: '%.1f %%' % (100.0 * self.status[robot].latest().percentage)   # noqa: E731
-            self.wait(3.0, lambda d: self.field(topic_of(robot), 'percentage') == expected(),
-                      '%s shows the level of its latest battery_status' % robot)
-            latest = self.status[robot].latest()
+            # level, voltage and current of one and the same message (a new one may land between reads)
+            def shown():
+                return tuple(self.field(topic_of(robot), name) for name in ('percentage', 'voltage', 'current'))
+
+            def expected():
+                latest = self.status[robot].latest()
+                return ('%.1f %%' % (100.0 * latest.percentage), '%.2f V' % latest.voltage,
+                        '%.2f A' % latest.current)
+            self.wait(3.0, lambda d: shown() == expected(),
+                      '%s shows the level, voltage and current of its latest battery_status' % robot)
             self.assertEqual(self.field(topic_of(robot), 'status'), 'Discharging')
-            self.assertEqual(self.field(topic_of(robot), 'voltage'), '%.2f V' % latest.voltage)
-            self.assertEqual(self.field(topic_of(robot), 'current'), '%.2f A' % latest.current)
             self.assertTrue(self.field(topic_of(robot), 'temperature').endswith('°C'))
             self.assertRegex(self.field(topic_of(robot), 'time_remaining'), r'^\d+ (h \d\d )?min$')
             self.assertNotIn('stale', self.classes(topic_of(robot)))
