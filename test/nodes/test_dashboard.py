@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """rostest: the live dashboard (test/dashboard.test) read the way a person reads it, in headless
 Chromium: a fleet of five, each level as battery_status says, a set_state within 1 s, low and
-critical marked, the detail page's charts, the controls' checks, a battery with NaN fields that
+critical marked, the detail page's charts (with controls, and read-only without any), the controls' checks, a battery with NaN fields that
 goes stale and then away, 403 for a foreign Host, and a port in use stopping a second dashboard."""
 import http.client
 import math
@@ -18,7 +18,7 @@ from selenium.webdriver.support.ui import WebDriverWait
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.srv import SetState
-from rostest_helpers import Recorder, node_command, wait_for
+from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(5)]
 NAN_TOPIC = '/zz_nan/battery_status'   # sorts after the robots
@@ -178,6 +178,32 @@ class TestDashboard(unittest.TestCase):
             width, painted_pixels = self.driver.execute_script(painted % chart)
             self.assertGreater(width, 100, chart)
             self.assertGreater(painted_pixels, 500, '%s chart drawn' % chart)
+
+    def test_4b_a_read_only_battery_page_draws_its_charts_without_controls_or_errors(self):
+        port = self.port + 1   # a second, read-only dashboard (the one under test has controls on)
+        read_only = subprocess.Popen(node_command('battery_dashboard.py') + ['__name:=read_only_dashboard',
+                                                                            '_port:=%d' % port], start_new_session=True)
+        try:
+            wait_for(lambda: self.answers_on(port), 30.0, 'the read-only dashboard')
+            self.driver.get('http://127.0.0.1:%d/battery?topic=%%2Frobot0%%2Fbattery_status' % port)
+            points = ("return Object.values(window.batteryCharts || {}).map("
+                      "c => c.data.datasets[0].data.filter(p => Number.isFinite(p.y)).length)")
+            self.wait(15.0, lambda d: len(d.execute_script(points)) == 4 and min(d.execute_script(points)) >= 2,
+                      'four charts with at least two points each')
+            self.assertEqual(self.driver.find_elements(By.CSS_SELECTOR, 'button, input, #controls'), [])
+        finally:   # tearDown: no error in the page's console (the page's scripts ran to the end)
+            stop_process(read_only)
+
+    @staticmethod
+    def answers_on(port):
+        connection = http.client.HTTPConnection('127.0.0.1', port, timeout=2.0)
+        try:
+            connection.request('GET', '/api/batteries', headers={'Host': '127.0.0.1:%d' % port})
+            return connection.getresponse().status == 200
+        except OSError:
+            return False
+        finally:
+            connection.close()
 
     def test_5_controls_refuse_out_of_range_values_and_call_set_state(self):
         topic = topic_of('robot4')

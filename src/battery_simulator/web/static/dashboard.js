@@ -272,166 +272,31 @@ function batteryPage() {
     }
   }
 
-  if (document.getElementById('controls')) {
-
-  }
-
-  function ages() {
-    const now = serverNow();
-    for (const entry of cards.values()) {
-      const last = entry.battery.last_message;
-      entry.node.querySelector('.updated').textContent = last === null ? 'no message yet' : 'updated ' + ageText(now - last);
-    }
-  }
-
-  connect((message) => {
-    if (message.type === 'snapshot') {
-      const present = new Set(message.batteries.map((b) => b.topic));
-      for (const [topic, entry] of cards) {
-        if (!present.has(topic)) { entry.node.remove(); cards.delete(topic); }
+  if (document.getElementById('controls')) {   // read-only pages have none
+    const form = document.getElementById('set-state');
+    form.addEventListener('submit', (event) => {
+      event.preventDefault();
+      const result = document.getElementById('control-result');
+      if (!form.checkValidity()) { form.reportValidity(); result.textContent = 'a value is out of range'; result.className = 'result error'; return; }
+      const body = {action: 'set_state'};
+      for (const input of form.querySelectorAll('input')) body[input.name] = input.value === '' ? '' : Number(input.value);
+      if (['percentage', 'temperature_c', 'state_of_health'].every((name) => body[name] === '')) {
+        result.textContent = 'enter at least one value'; result.className = 'result error'; return;
       }
-    }
-    for (const battery of message.batteries) show(battery);
-    for (const topic of message.removed || []) {
-      const entry = cards.get(topic);
-      if (entry) { entry.node.remove(); cards.delete(topic); }
-    }
-    summarize();
-    ages();
-  });
-  setInterval(ages, 1000);
-}
-
-// -- one battery -----------------------------------------------------------------
-
-function batteryPage() {
-  const topic = new URLSearchParams(location.search).get('topic') || '';
-  const root = document.getElementById('battery');
-  root.dataset.battery = topic;
-  document.getElementById('title').textContent = displayName(topic);
-  document.title = displayName(topic) + ' - battery_dashboard';
-  let historyS = 600;
-  let lastPoint = null;
-  let latest = null;
-  const charts = {};
-  window.batteryCharts = charts;   // for tests and the curious: the Chart.js instances
-
-  for (const [field, colour] of Object.entries(CHART_FIELDS)) {
-    const canvas = document.querySelector('canvas[data-chart="' + field + '"]');
-    charts[field] = new Chart(canvas, {
-      type: 'line',
-      data: {datasets: [{data: [], borderColor: colour, backgroundColor: colour + '22', fill: field === 'percentage',
-                         borderWidth: 2, pointRadius: 0, spanGaps: false}]},
-      options: {
-        animation: false, parsing: false, normalized: true, maintainAspectRatio: false,
-        plugins: {legend: {display: false}, tooltip: {enabled: true, intersect: false, mode: 'index',
-          callbacks: {title: (items) => ageText(serverNow() - items[0].parsed.x)}}},
-        scales: {
-          x: {type: 'linear', ticks: {maxTicksLimit: 7, callback: minutesAgo}},
-          y: field === 'percentage' ? {min: 0, max: 100} : {grace: '5%'},
-        },
-      },
+      control(body);
     });
-  }
-
-  function setRange() {
-    const now = serverNow();
-    for (const chart of Object.values(charts)) {
-      chart.options.scales.x.min = now - historyS;
-      chart.options.scales.x.max = now;
-      const data = chart.data.datasets[0].data;
-      while (data.length && data[0].x < now - historyS) data.shift();
-      chart.canvas.dataset.points = data.length;
-      chart.update('none');
+    for (const button of document.querySelectorAll('button[data-control="set_charging"]')) {
+      button.addEventListener('click', () => control({action: 'set_charging', charging: button.dataset.charging === 'true'}));
     }
-  }
-
-  function addPoint(t, values) {
-    for (const field of Object.keys(CHART_FIELDS)) {
-      const y = values[field];
-      charts[field].data.datasets[0].data.push({x: t, y: y === null || y === undefined ? NaN : y});
+    const faults = document.getElementById('faults');
+    for (const fault of FAULT_NAMES) {
+      const button = element('button', 'fault', 'Inject ' + fault.replace('_', ' '));
+      button.type = 'button';
+      button.dataset.fault = fault;
+      button.addEventListener('click', () => control({action: 'inject_fault', fault,
+                                                       active: !(latest && latest.sim && (latest.sim.active_faults || []).includes(fault))}));
+      faults.appendChild(button);
     }
-    lastPoint = t;
-  }
-
-  function showDetail(battery) {
-    latest = battery;
-    document.getElementById('missing').hidden = true;
-    root.hidden = false;
-    showFields(root, battery);
-    showLevel(root, battery);
-    const sim = battery.sim || {};
-    const text = (field, value) => { root.querySelector('[data-field="' + field + '"]').textContent = value; };
-    text('charge', battery.fields.charge);
-    text('capacity', battery.fields.capacity);
-    text('health', battery.fields.health);
-    text('faults', sim.active_faults === undefined ? '-' : (sim.active_faults.join(', ') || 'none'));
-    text('cut_off', sim.cut_off === undefined ? '-' : (sim.cut_off || 'none'));
-    text('cycle_count', typeof sim.cycle_count === 'number' ? sim.cycle_count.toFixed(2) : '-');
-    text('state_of_health', typeof sim.state_of_health === 'number' ? (100 * sim.state_of_health).toFixed(1) + ' %' : '-');
-    text('period', battery.period_s ? battery.period_s.toFixed(2) + ' s' : '-');
-    text('host', battery.host || '-');
-    showControls(battery);
-    if (battery.last_message !== null && (lastPoint === null || battery.last_message > lastPoint)) {
-      addPoint(battery.last_message, {percentage: battery.level, voltage: battery.values && battery.values.voltage,
-                                      current: battery.values && battery.values.current,
-                                      temperature: battery.values && battery.values.temperature});
-      setRange();
-    }
-  }
-
-  let controlsOn = false;
-  function showControls(battery) {
-    const section = document.getElementById('controls');
-    if (!section) return;   // read-only: the server leaves the controls out
-    section.hidden = !(controlsOn && battery.controls);
-    const active = (battery.sim && battery.sim.active_faults) || [];
-    for (const button of document.querySelectorAll('#faults button')) {
-      const on = active.includes(button.dataset.fault);
-      button.classList.toggle('active', on);
-      button.textContent = (on ? 'Clear ' : 'Inject ') + button.dataset.fault.replace('_', ' ');
-    }
-  }
-
-  async function control(body) {
-    const result = document.getElementById('control-result');
-    result.textContent = 'sending...';
-    result.className = 'result';
-    try {
-      const response = await fetch('/api/control', {method: 'POST', headers: {'Content-Type': 'application/json'},
-                                                     body: JSON.stringify(Object.assign({topic}, body))});
-      const answer = await response.json();
-      result.textContent = answer.message || (answer.success ? 'done' : 'refused');
-      result.className = 'result ' + (answer.success ? 'ok' : 'error');
-    } catch (error) {
-      result.textContent = String(error);
-      result.className = 'result error';
-    }
-  }
-
-  const form = document.getElementById('set-state');
-  form.addEventListener('submit', (event) => {
-    event.preventDefault();
-    const result = document.getElementById('control-result');
-    if (!form.checkValidity()) { form.reportValidity(); result.textContent = 'a value is out of range'; result.className = 'result error'; return; }
-    const body = {action: 'set_state'};
-    for (const input of form.querySelectorAll('input')) body[input.name] = input.value === '' ? '' : Number(input.value);
-    if (['percentage', 'temperature_c', 'state_of_health'].every((name) => body[name] === '')) {
-      result.textContent = 'enter at least one value'; result.className = 'result error'; return;
-    }
-    control(body);
-  });
-  for (const button of document.querySelectorAll('button[data-control="set_charging"]')) {
-    button.addEventListener('click', () => control({action: 'set_charging', charging: button.dataset.charging === 'true'}));
-  }
-  const faults = document.getElementById('faults');
-  for (const fault of FAULT_NAMES) {
-    const button = element('button', 'fault', 'Inject ' + fault.replace('_', ' '));
-    button.type = 'button';
-    button.dataset.fault = fault;
-    button.addEventListener('click', () => control({action: 'inject_fault', fault,
-                                                     active: !(latest && latest.sim && (latest.sim.active_faults || []).includes(fault))}));
-    faults.appendChild(button);
   }
 
   function ages() {
