@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """rostest: the live dashboard (test/dashboard.test) read the way a person reads it, in headless
 Chromium: a fleet of five, each level as battery_status says, a set_state within 1 s, low and
-critical marked, the detail page's charts (with controls, and read-only without any), the controls' checks, a battery with NaN fields that
-goes stale and then away, 403 for a foreign Host, and a port in use stopping a second dashboard."""
+critical marked, the detail page's charts (with controls, and read-only without any), the
+controls' checks, a battery with NaN fields that goes stale and then away, 403 for a foreign
+Host, and a port in use stopping a second dashboard."""
 import http.client
 import math
 import subprocess
