@@ -26,7 +26,7 @@ import math
 from bisect import bisect_right
 from collections import namedtuple
 
-from battery_simulator.core.parameters import BatteryParameters
+from battery_simulator.core.parameters import BatteryParameters, is_number
 
 _KELVIN = 273.15
 
@@ -260,7 +260,7 @@ class BatteryModel:
         """
         if state_of_charge is not None:
             _check_fraction('state_of_charge', state_of_charge)
-        if temperature_c is not None and not (_is_finite(temperature_c) and -60.0 <= temperature_c <= 150.0):
+        if temperature_c is not None and not (is_number(temperature_c) and -60.0 <= temperature_c <= 150.0):
             raise ValueError('temperature_c = %r is invalid: must be in [-60, 150] degC' % (temperature_c,))
         if state_of_health is not None:
             _check_fraction('state_of_health', state_of_health)
@@ -298,7 +298,7 @@ class BatteryModel:
             raise ValueError('saved state %r is invalid: must have exactly %s (%s may be missing)'
                              % (saved, ', '.join(sorted(keys)), ', '.join(SINCE_TWO_RC)))
         values = dict(SINCE_TWO_RC, **saved)
-        if not all(_is_finite(v) for v in values.values()) or values['discharged_ah'] < 0 \
+        if not all(is_number(v) for v in values.values()) or values['discharged_ah'] < 0 \
                 or abs(values['rc_voltage_v']) > 1.0 or abs(values['fast_rc_voltage_v']) > 1.0 \
                 or abs(values['hysteresis']) > 1.0:
             raise ValueError('saved state %r is invalid: values out of range' % (saved,))
@@ -708,10 +708,6 @@ def _memory_fraction(dt_s, tau_s, decay):
     return 1.0 / (1.0 - decay) - 1.0 / ratio
 
 
-def _is_finite(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _check_fraction(name, value):
-    if not (_is_finite(value) and 0.0 <= value <= 1.0):
+    if not (is_number(value) and 0.0 <= value <= 1.0):
         raise ValueError('%s = %r is invalid: must be in [0, 1]' % (name, value))

@@ -6,9 +6,10 @@ optional. What a robot does not set comes from the host's defaults; with a
 count and no fleet-wide initial percentage the levels are staggered as
 fleet.launch always did: 100, 95, 90, ..., wrapping at 20.
 """
-import math
 import re
 from dataclasses import dataclass
+
+from battery_simulator.core.parameters import is_number
 
 #: a ROS graph name segment: a letter, then letters, digits and underscores
 _NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
@@ -31,10 +32,6 @@ class RobotSpec:
 def staggered_percentage(index):
     """The level of the ``index``-th robot of a counted fleet: 100, 95, ..., 20, then 100 again."""
     return 100.0 - (5 * index) % 85
-
-
-def _is_number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def robot_specs(robots, prefix='robot', first=0, config='', initial_percentage=None, charging=False):
@@ -80,7 +77,7 @@ def _robot_entry(index, entry, seen, config, initial_percentage, charging):
             level = float(level)
         except ValueError:
             pass
-    if not (_is_number(level) and 0 <= level <= 100):
+    if not (is_number(level) and 0 <= level <= 100):
         raise FleetError('robot %s: initial_percentage = %r is invalid: must be a number in [0, 100]'
                          % (name, level))
     robot_charging = entry.get('charging', charging)

@@ -15,14 +15,15 @@ class ParameterError(ValueError):
 
 
 def _positive(value):
-    return _is_number(value) and value > 0
+    return is_number(value) and value > 0
 
 
 def _non_negative(value):
-    return _is_number(value) and value >= 0
+    return is_number(value) and value >= 0
 
 
-def _is_number(value):
+def is_number(value):
+    """A real, finite number (not a bool)."""
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value))
 
@@ -203,35 +204,35 @@ _RULES = (
     ('r1_charge_factor', _positive, 'a number > 0'),
     ('r_fast_charge_factor', _positive, 'a number > 0'),
     ('hysteresis_ah', _positive, 'a number > 0'),
-    ('coulombic_efficiency', lambda v: _is_number(v) and 0 < v <= 1, 'a number in (0, 1]'),
+    ('coulombic_efficiency', lambda v: is_number(v) and 0 < v <= 1, 'a number in (0, 1]'),
     ('cell_charge_voltage_v', _positive, 'a number > 0'),
     ('cell_cutoff_voltage_v', _positive, 'a number > 0'),
     ('charge_current_a', _positive, 'a number > 0'),
     ('termination_current_a', lambda v: v is None or _positive(v), 'null or a number > 0'),
     ('load_current_a', _non_negative, 'a number >= 0'),
     ('load_power_w', _non_negative, 'a number >= 0'),
-    ('ambient_temperature_c', lambda v: _is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
-    ('initial_temperature_c', lambda v: v is None or (_is_number(v) and -60 <= v <= 100),
+    ('ambient_temperature_c', lambda v: is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
+    ('initial_temperature_c', lambda v: v is None or (is_number(v) and -60 <= v <= 100),
      'null or a number in [-60, 100]'),
     ('cell_heat_capacity_j_per_k', _positive, 'a number > 0'),
     ('cell_heat_transfer_w_per_k', _positive, 'a number > 0'),
     ('arrhenius_temperature_k', _non_negative, 'a number >= 0'),
-    ('reference_temperature_c', lambda v: _is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
+    ('reference_temperature_c', lambda v: is_number(v) and -60 <= v <= 100, 'a number in [-60, 100]'),
     ('cell_max_discharge_current_a', _positive, 'a number > 0'),
     ('cell_max_charge_current_a', _positive, 'a number > 0'),
-    ('protection_temperature_c', lambda v: _is_number(v) and 0 < v <= 150, 'a number in (0, 150]'),
-    ('overheat_temperature_c', _is_number, 'a number'),
-    ('cold_temperature_c', _is_number, 'a number'),
-    ('capacity_fade_per_cycle', lambda v: _is_number(v) and 0 <= v < 0.01, 'a number in [0, 0.01)'),
+    ('protection_temperature_c', lambda v: is_number(v) and 0 < v <= 150, 'a number in (0, 150]'),
+    ('overheat_temperature_c', is_number, 'a number'),
+    ('cold_temperature_c', is_number, 'a number'),
+    ('capacity_fade_per_cycle', lambda v: is_number(v) and 0 <= v < 0.01, 'a number in [0, 0.01)'),
     ('initial_cycle_count', _non_negative, 'a number >= 0'),
-    ('drive_power_w_per_mps', lambda v: _is_number(v) and 0 <= v <= MAX_MOTION_POWER_COEFFICIENT,
+    ('drive_power_w_per_mps', lambda v: is_number(v) and 0 <= v <= MAX_MOTION_POWER_COEFFICIENT,
      'a number in [0, %g] W/(m/s)' % MAX_MOTION_POWER_COEFFICIENT),
-    ('turn_power_w_per_radps', lambda v: _is_number(v) and 0 <= v <= MAX_MOTION_POWER_COEFFICIENT,
+    ('turn_power_w_per_radps', lambda v: is_number(v) and 0 <= v <= MAX_MOTION_POWER_COEFFICIENT,
      'a number in [0, %g] W/(rad/s)' % MAX_MOTION_POWER_COEFFICIENT),
     ('cmd_vel_timeout_s', _positive, 'a number > 0'),
-    ('voltage_noise_v', lambda v: _is_number(v) and 0 <= v <= MAX_VOLTAGE_NOISE_V,
+    ('voltage_noise_v', lambda v: is_number(v) and 0 <= v <= MAX_VOLTAGE_NOISE_V,
      'a number in [0, %g] V' % MAX_VOLTAGE_NOISE_V),
-    ('current_noise_a', lambda v: _is_number(v) and 0 <= v <= MAX_CURRENT_NOISE_A,
+    ('current_noise_a', lambda v: is_number(v) and 0 <= v <= MAX_CURRENT_NOISE_A,
      'a number in [0, %g] A' % MAX_CURRENT_NOISE_A),
     ('location', lambda v: isinstance(v, str), 'a string'),
     ('serial_number', lambda v: isinstance(v, str), 'a string'),
@@ -309,7 +310,7 @@ def _validate_ocv_table(params):
     soc, volts = params.ocv_soc, params.ocv_voltage_v
     for name, table in (('ocv_soc', soc), ('ocv_voltage_v', volts)):
         if not isinstance(table, (tuple, list)) or len(table) < 2 \
-                or not all(_is_number(x) for x in table):
+                or not all(is_number(x) for x in table):
             _fail(name, table, 'a list of at least 2 numbers')
     if len(soc) != len(volts):
         _fail('ocv_voltage_v', volts, 'as many entries as ocv_soc (%d)' % len(soc))
@@ -328,7 +329,7 @@ def _validate_ocv_table(params):
 
 def _validate_charge_branch(params):
     volts = params.ocv_charge_voltage_v
-    if not isinstance(volts, (tuple, list)) or not all(_is_number(x) for x in volts):
+    if not isinstance(volts, (tuple, list)) or not all(is_number(x) for x in volts):
         _fail('ocv_charge_voltage_v', volts, 'a list of numbers (empty: no charge branch)')
     if volts and len(volts) != len(params.ocv_soc):
         _fail('ocv_charge_voltage_v', volts, 'empty or as many entries as ocv_soc (%d)' % len(params.ocv_soc))
@@ -340,7 +341,7 @@ def _validate_charge_branch(params):
 
 def _validate_resistance_tables(params):
     grid = params.resistance_soc
-    if not isinstance(grid, (tuple, list)) or not all(_is_number(x) for x in grid):
+    if not isinstance(grid, (tuple, list)) or not all(is_number(x) for x in grid):
         _fail('resistance_soc', grid, 'a list of numbers (empty: resistances independent of SOC)')
     if grid and (len(grid) < 2 or grid[0] != 0 or grid[-1] != 1 or any(b <= a for a, b in zip(grid, grid[1:]))):
         _fail('resistance_soc', grid, 'empty or strictly increasing from 0 to 1')

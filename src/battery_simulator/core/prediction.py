@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 
 from battery_simulator.core.battery_model import CutOff, Mode, Status
-from battery_simulator.core.parameters import MAX_SPEED_MPS, MAX_TURN_RADPS, load_power_error
+from battery_simulator.core.parameters import MAX_SPEED_MPS, MAX_TURN_RADPS, is_number, load_power_error
 
 #: the longest plan, s (7 days)
 MAX_PLAN_S = 7 * 86400.0
@@ -111,7 +111,7 @@ def plan_from_arrays(duration_s=(), current_a=(), power_w=(), speed_mps=(), turn
     for name, values in arrays.items():
         check, allowed = rules[name]
         for index, value in enumerate(values):
-            if not (_is_number(value) and check(value)):
+            if not (is_number(value) and check(value)):
                 raise PredictionError('%s[%d] = %r is invalid: must be %s' % (name, index, value, allowed))
     total_s = math.fsum(duration_s)
     if total_s > MAX_PLAN_S:
@@ -276,7 +276,3 @@ class _Run:
     def _seen(self):
         self.min_voltage_v = min(self.min_voltage_v, self.model.voltage_v)
         self.max_temperature_c = max(self.max_temperature_c, self.model.temperature_c)
-
-
-def _is_number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

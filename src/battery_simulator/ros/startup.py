@@ -1,6 +1,5 @@
 """Start-up parameter checks shared by the nodes: one fatal line, non-zero exit."""
 import contextlib
-import math
 import os
 import signal
 import sys
@@ -8,17 +7,13 @@ import time
 
 import rospy
 
-from battery_simulator.core.parameters import number_from_text
+from battery_simulator.core.parameters import is_number, number_from_text
 
 FATAL_FLUSH_S = 0.3   # how long a dying node gives its last line to reach /rosout
 
 
 class StartupError(ValueError):
     """A bad parameter at start-up; the message names it, its value and what is allowed."""
-
-
-def is_number(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def checked_param(name, default, check, allowed):

@@ -10,6 +10,8 @@ import bisect
 import collections
 import math
 
+from battery_simulator.core.parameters import is_number
+
 BATTERY_TYPE = 'sensor_msgs/BatteryState'
 BOOL_TYPE = 'std_msgs/Bool'
 SIM_STATE_TYPE = 'battery_simulator/BatterySimState'
@@ -38,23 +40,20 @@ FAULTS = ('charger_fault', 'overheat', 'sensor_dropout', 'measurement_noise')
 
 # -- text ----------------------------------------------------------------------
 
-def finite(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
 
 def number_text(value, digits, unit):
     """'12.31 V'; '-' for NaN, infinity or nothing."""
-    return '%.*f %s' % (digits, value, unit) if finite(value) else '-'
+    return '%.*f %s' % (digits, value, unit) if is_number(value) else '-'
 
 
 def percentage_text(fraction):
     """BatteryState.percentage (0..1) as '63.2 %'."""
-    return number_text(100.0 * fraction if finite(fraction) else None, 1, '%')
+    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%')
 
 
 def duration_text(seconds):
     """'2 h 05 min', '7 min', '40 s'; '-' when unknown."""
-    if not finite(seconds) or seconds < 0:
+    if not is_number(seconds) or seconds < 0:
         return '-'
     if seconds < 60:
         return '%d s' % seconds
@@ -66,20 +65,20 @@ def duration_text(seconds):
 
 def json_number(value):
     """A number JSON can carry (NaN and infinities become null)."""
-    return float(value) if finite(value) else None
+    return float(value) if is_number(value) else None
 
 
 # -- rules -----------------------------------------------------------------------
 
 def stale_after_s(period_s):
     """No message for this long: stale (3 s or 3 periods, whichever is longer)."""
-    return max(STALE_MIN_S, STALE_PERIODS * period_s) if finite(period_s) else STALE_MIN_S
+    return max(STALE_MIN_S, STALE_PERIODS * period_s) if is_number(period_s) else STALE_MIN_S
 
 
 def level_flags(percentage, low_topic, critical_topic):
     """(low, critical): the battery_low / battery_critical topics where they said something,
     else the level below 20 % / 5 %."""
-    known = finite(percentage)
+    known = is_number(percentage)
     low = low_topic if low_topic is not None else (known and percentage < LOW_FRACTION)
     critical = critical_topic if critical_topic is not None else (known and percentage < CRITICAL_FRACTION)
     return bool(low), bool(critical)
@@ -93,7 +92,7 @@ def status_name(power_supply_status, sim_charging_state=None, percentage=None):
     if sim_charging_state in SIM_CHARGING_STATE:
         return SIM_CHARGING_STATE[sim_charging_state]
     name = SUPPLY_STATUS.get(power_supply_status, '-')
-    if name == 'Not charging' and finite(percentage) and percentage <= 0.0:
+    if name == 'Not charging' and is_number(percentage) and percentage <= 0.0:
         return 'Empty'
     return name
 
@@ -103,7 +102,7 @@ def time_remaining_s(values, status):
     simulator computes it); None when the BatteryState lacks charge, capacity or current (a
     capacity of 0, as many drivers send for "not measured", counts as lacking)."""
     charge, capacity, current = values.get('charge'), values.get('capacity'), values.get('current')
-    if not (finite(charge) and finite(current) and finite(capacity) and capacity > 0.0):
+    if not (is_number(charge) and is_number(current) and is_number(capacity) and capacity > 0.0):
         return None
     if status == 'Discharging' and current < 0.0:
         return charge / -current * 3600.0
@@ -198,7 +197,7 @@ class BatteryRecord:
         self.values = values
         if not self.history or now - self.history[-1][0] >= history_step_s:
             percentage = values.get('percentage')
-            self.history.append((now, 100.0 * percentage if finite(percentage) else None,
+            self.history.append((now, 100.0 * percentage if is_number(percentage) else None,
                                  json_number(values.get('voltage')), json_number(values.get('current')),
                                  json_number(values.get('temperature'))))
 
@@ -212,7 +211,7 @@ class BatteryRecord:
     def remaining_s(self, status):
         """The simulator's own figure where it gives one, else from charge, capacity and current."""
         if 'time_remaining_s' in self.sim:
-            return self.sim['time_remaining_s'] if finite(self.sim['time_remaining_s']) else None
+            return self.sim['time_remaining_s'] if is_number(self.sim['time_remaining_s']) else None
         return time_remaining_s(self.values, status)
 
     def view(self, now):
@@ -236,7 +235,7 @@ class BatteryRecord:
                 'capacity': number_text(values.get('capacity'), 2, 'Ah'),
                 'health': SUPPLY_HEALTH.get(self.power_supply_health, '-'),
             },
-            'level': json_number(100.0 * percentage) if finite(percentage) else None,
+            'level': json_number(100.0 * percentage) if is_number(percentage) else None,
             'values': {field: json_number(values.get(field)) for field in ('voltage', 'current', 'temperature')},
             'low': low,
             'critical': critical,
