@@ -36,26 +36,22 @@ act on the model through the same lock.
   - ``battery_simulator/set_charging`` (std_srvs/SetBool): as a charger contact change
   - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
-  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
+  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): core/names.py FAULTS
   - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after
     it) would do, from a copy of the model (core/prediction.py); changes nothing, so it replies at once
   Each other service (and dynamic_reconfigure) replies once battery_state_pub has sent the
   state it changed on battery_status (publish_now, acknowledged on status_sent; without
   a battery_state_pub, once it is published), so the next battery_status shows the change.
 """
-import copy
 import math
-import random
 import threading
 import time
 from contextlib import contextmanager
-from dataclasses import replace
 
 import actionlib
 import rospy
 from dynamic_reconfigure.server import Server as ReconfigureServer
 from geometry_msgs.msg import Twist
-from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
@@ -64,13 +60,12 @@ from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.battery.workers import StatusTimer, UpdateLoop
 from battery_simulator.cfg import BatterySimConfig
-from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
-from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, default_config_path,
-                                               load_power_error, load_yaml)
+from battery_simulator.core.battery import (LIVE_PARAMETERS, UNREADABLE, Battery, BatteryError, Goal, GoalEnd,
+                                            noisy_current, noisy_voltage)
+from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
-from battery_simulator.core.time_base import TimeBase
-from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
-                                   battery_simResult)
+from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros import topics
 from battery_simulator.ros.cached_param import CachedParam
 from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number, signals_held,
@@ -79,34 +74,9 @@ from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, Pr
                                    SetLoadResponse, SetState, SetStateResponse)
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
-INVALID_LOG_PERIOD_S = 10.0
-OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
 LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
-FAULTS = {
-    'charger_fault': 'charger connected but no current flows',
-    'overheat': 'the pack heats past its overheat limit',
-    'sensor_dropout': 'battery_status stops; the model runs on',
-    'measurement_noise': 'Gaussian noise on the reported voltage and current',
-}
-#: the dynamic_reconfigure keys that are battery parameters (time_scale is the node's)
-LIVE_PARAMETERS = ('load_current_a', 'load_power_w', 'charge_current_a', 'ambient_temperature_c',
-                   'drive_power_w_per_mps', 'turn_power_w_per_radps')
-#: the model's named loads: cmd_vel's motion, set_load's payloads
-MOTION_LOAD = 'motion'
-PAYLOAD_LOAD = 'payload'
-_INVALID = object()
-
-
-def parse_mode(value):
-    """The Mode a MyRobot/BatteryStatus value asks for, or _INVALID. Unset holds (IDLE)."""
-    if value is None:
-        return Mode.IDLE
-    if isinstance(value, bool):
-        return Mode.CHARGE if value else Mode.DISCHARGE
-    if isinstance(value, (int, float)) and value in (0, 1):
-        return Mode.CHARGE if value == 1 else Mode.DISCHARGE
-    return _INVALID
+__all__ = ['BatterySimServer', 'read_settings', 'main', 'noisy_current', 'noisy_voltage']
 
 
 def read_settings():
@@ -132,23 +102,17 @@ def read_settings():
     )
 
 
-class ActiveGoal:
-    """The goal being pursued: the mode it asked for and where it ends."""
-
-    def __init__(self, charge):
-        self.mode = Mode.CHARGE if charge else Mode.DISCHARGE
-        self.target = Status.FULL if charge else Status.EMPTY
-        self.done_text = 'Full' if charge else 'Empty'
-
-
 class BatterySimServer:
-    """The action server, the worker thread that steps the model, and the controls.
+    """One battery's rospy front end: the action, the services, the inputs, the state topic.
 
-    Lock order: ``self._lock`` (a Condition) guards the model, the mode
-    bookkeeping, the loads and the faults; it is taken last and held briefly (a
-    service waiting for its change to go out releases it in Condition.wait_for).
-    Goals are taken, fed and ended only by the worker thread, never while it
-    holds ``self._lock``, so actionlib's own locks are always taken first.
+    The battery's behaviour is the ROS-free ``self.battery`` (core/battery.py);
+    this class turns ROS inputs into its calls and its records into messages.
+
+    Lock order: ``self.battery.lock`` (a Condition) guards the battery and the
+    publication bookkeeping here; it is taken last and held briefly (a service
+    waiting for its change to go out releases it in Condition.wait_for). Goals
+    are taken, fed and ended only by the worker thread, never while it holds
+    that lock, so actionlib's own locks are always taken first.
     """
 
     def __init__(self, namespace, node_name, params, time_scale, initial_percentage, charging, store, loop,
@@ -156,18 +120,15 @@ class BatterySimServer:
         """One battery whose names live under ``namespace`` ('/', '/robot3/'); ``node_name`` is where its
         dynamic_reconfigure lives (its node, or '/robot3/BatterySimServer' in a fleet host); ``store``
         keeps its saved state; ``loop`` (UpdateLoop) steps it; ``status_timer`` publishes its goal status."""
-        self.params = params
         self._ns = namespace
         self._node_name = node_name
         self._log = log or RobotLog()
-        self._initial_soc = initial_percentage / 100.0
-        self._sim_time = bool(rospy.get_param('/use_sim_time', False))
-        self._time_scale = time_scale      # as configured (the time base ignores it under sim time)
-        if self._sim_time:
-            self._clock, self._time_base = rospy.get_time, TimeBase(1.0, zero_is_unset=True)
-        else:
-            self._clock, self._time_base = time.monotonic, TimeBase(time_scale)
-        self._lock = threading.Condition()
+        sim_time = bool(rospy.get_param('/use_sim_time', False))
+        self._mode_param = CachedParam(namespace + topics.MODE_PARAM)
+        self.battery = Battery(params, initial_percentage, charging,
+                               clock=rospy.get_time if sim_time else time.monotonic, sim_time=sim_time,
+                               time_scale=time_scale, mode_name=self._mode_param.name, log=self._log)
+        self._lock = self.battery.lock
         self._loop = loop
         self._status_timer = status_timer
         self._updates = 0                  # model updates taken for publishing (worker)
@@ -175,30 +136,16 @@ class BatterySimServer:
         self._published_update = 0         # the last update published on battery_simulator/state
         self._sent_update = 0              # the last publish_now update battery_state_pub has sent on
         self._stopping = threading.Event()
-        self._mode_generation = 0          # bumped whenever the mode is set other than by the parameter
-        self._mode_source = 'parameter'    # who set the mode last (for abort texts)
-        self._mode_param = CachedParam(namespace + topics.MODE_PARAM)
-        self._contact = False              # the charger contact as last reported
-        self._motion = (None, 0.0, 0.0)    # (clock time, |v| m/s, |w| rad/s) of the last cmd_vel
-        self._motion_since = None          # clock time the motion energy is accounted up to
-        self._motion_energy_j = 0.0        # motion energy since the model's last step, J
-        self._payloads = {}                # name -> W
-        self._faults = set()
-        self._noise = random.Random()
-        self._goal = None                  # ActiveGoal, worker thread only
+        self._goal = None                  # core Goal, worker thread only
         self._logged = (None, 0.0)         # (whole percent, wall time) of the last progress line
-        self._invalid_logged = (None, 0.0)  # (repr of the bad mode value, wall time) last logged
         self._store = store
         self._state_listeners = []         # in-process battery_state_pub logic (a fleet host): called per update
         self._sent_sub = None              # battery_state_pub's acknowledgements, when it is another process
 
-        self.model = BatteryModel(params, state_of_charge=self._initial_soc,
-                                  mode=Mode.CHARGE if charging else Mode.DISCHARGE)
         resumed_from = self._resume()
         if resumed_from is None:
             self._mode_param.set(1 if charging else 0)
-        self._follow(self._read_mode_param())
-        self.model.step(0.0)
+        self.battery.follow_mode_value(self._read_mode_param())
         self._resumed_from = resumed_from
 
         self._latest_state = None
@@ -211,8 +158,16 @@ class BatterySimServer:
         self._server.register_preempt_callback(self._wake_up)
         loop.add(self)
 
+    @property
+    def params(self):
+        return self.battery.params
+
+    @property
+    def model(self):
+        return self.battery.model
+
     def add_state_listener(self, listener):
-        """Call ``listener(BatterySimState)`` after every update, in the worker thread (an in-process publisher)."""
+        """Call ``listener(SimState)`` after every update, in the worker thread (an in-process publisher)."""
         self._state_listeners.append(listener)
 
     def _resume(self):
@@ -221,9 +176,10 @@ class BatterySimServer:
         if saved is None:
             return None
         try:
-            self.model.restore_state(saved)
+            self.battery.resume(saved)
         except ValueError as error:
-            self._log.warn('not resuming from %s: %s; starting at %.1f %%', where, error, 100 * self._initial_soc)
+            self._log.warn('not resuming from %s: %s; starting at %.1f %%', where, error,
+                           self.battery.initial_percentage)
             return None
         return where
 
@@ -242,14 +198,15 @@ class BatterySimServer:
             rospy.Service(ns + topics.INJECT_FAULT, InjectFault, self._inject_fault),
             rospy.Service(ns + topics.PREDICT, Predict, self._predict),
         ]
-        self._publish_state(self.model.snapshot())
+        self._publish_state(self.battery.record())
         self._server.start()
         self._status_timer.add(self._server)
-        self._reconfigure = self._start_reconfigure()
+        self._reconfigure = _LiveSettings(self.battery.live_values(), self._reconfigure_callback,
+                                          namespace=self._node_name + '/')
 
     def report_ready(self, resumed_only=False):
         """The start-up lines (after /rosout listens): resumed, and ready unless ``resumed_only``."""
-        snapshot = self.model.snapshot()
+        snapshot = self.battery.snapshot_now()
         if self._resumed_from:
             self._log.info('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',
                            self._resumed_from, snapshot.percentage, snapshot.cycle_count,
@@ -257,54 +214,21 @@ class BatterySimServer:
         if not resumed_only:
             self._log.info('battery_simulator ready: %s, %.1f %%, %s, %s', self.params.name, snapshot.percentage,
                            snapshot.status.value,
-                           'ROS time' if self._sim_time else 'time x%g' % self._time_base.time_scale)
-
-    def _start_reconfigure(self):
-        values = {name: getattr(self.params, name) for name in LIVE_PARAMETERS}
-        values['time_scale'] = self._time_scale
-        return _LiveSettings(values, self._reconfigure_callback, namespace=self._node_name + '/')
+                           'ROS time' if self.battery.sim_time else 'time x%g' % self.battery.time_scale)
 
     def _wake_up(self):
-        """Update and publish now (callers may hold self._lock: the loop's lock is taken after it)."""
+        """Update and publish now (callers may hold the battery's lock: the loop's lock is taken after it)."""
         self._loop.wake(self)
-
-    def _advance_to_now(self):
-        """Step the model up to this moment (self._lock held) before a change, so that the change
-        does not act on the time before it (one update period: 100 s of battery at time x1000, 10 Hz)."""
-        self._step_to(self._clock())
-
-    def _step_to(self, now):
-        """Step the model to ``now`` (self._lock held) with the motion load it had meanwhile: the energy of
-        every cmd_vel over the time it held, so an update period of any length (24 s of ROS time at
-        speed 240) drains what the robot's motion took. Returns that average motion power, W."""
-        self._account_motion(now)
-        dt_s = self._time_base.elapsed(now)
-        motion_w = self._motion_energy_j / dt_s if dt_s > 0.0 else self._motion_power_w(now)
-        self._motion_energy_j = 0.0
-        self.model.set_extra_load(MOTION_LOAD, power_w=motion_w)
-        self.model.step(dt_s)
-        return motion_w
-
-    def _account_motion(self, now):
-        """Add the energy of the command held since the last accounting (self._lock held): a cmd_vel
-        counts from its arrival until the next one or until it times out, on the model's clock."""
-        stamp, speed, turn = self._motion
-        since, self._motion_since = self._motion_since, now
-        if stamp is None or since is None or now <= since:
-            return   # nothing commanded yet, or the clock jumped back
-        held_s = min(now, stamp + self.params.cmd_vel_timeout_s) - max(since, stamp)   # on the clock
-        if held_s > 0.0:   # in simulated seconds, as the model steps
-            self._motion_energy_j += held_s * self._time_base.time_scale * self.params.motion_power_w(speed, turn)
 
     @contextmanager
     def _service_change(self):
-        """Hold self._lock around a service's change. The model is first stepped to now; after the
+        """Hold the battery's lock around a service's change. The model is first stepped to now; after the
         change the next update carries it and battery_state_pub sends it on battery_status at once.
         Waits (bounded) until it has, so the caller's reply comes after that battery_status (without
         a battery_state_pub to acknowledge, until the state is published). A change that raises
         (refused) is not waited for."""
         with self._lock:
-            self._advance_to_now()
+            self.battery.advance_to_now()
             yield
             wanted = self._updates + 1
             self._urgent_update = wanted
@@ -339,7 +263,7 @@ class BatterySimServer:
         self._stopping.set()
         with self._lock:
             self._lock.notify_all()
-            state = self.model.export_state()
+        state = self.battery.export_state()
         try:
             self._preempt('server shutting down')
         except rospy.ROSException:
@@ -347,98 +271,46 @@ class BatterySimServer:
         self._store.save_now(state)
 
     def _update(self):
-        """One model update: follow the mode, apply loads and faults, step, publish, check the goal."""
-        with self._lock:
-            generation = self._mode_generation
-        raw_mode = self._read_mode_param()
-        with self._lock:   # the clock is read under the lock: a service may step the model to its own now
-            now = self._clock()
-            restarts = self._time_base.restarts
-            if generation == self._mode_generation:  # else the mode was set meanwhile, and stands
-                self._follow(raw_mode)
-            if 'overheat' in self._faults:
-                self.model.temperature_c = max(self.model.temperature_c,
-                                               self.params.overheat_temperature_c + OVERHEAT_MARGIN_K)
-            motion_w = self._step_to(now)
-            snapshot = self.model.snapshot()
-            state = self.model.export_state()
-            load_w = motion_w + sum(self._payloads.values())
+        """One model update: follow the mode, step, publish, check the goal."""
+        generation = self.battery.mode_generation
+        mode_value = self._read_mode_param()
+        with self._lock:   # one step with its number: a service's change is in the update it waits for
+            update = self.battery.update(mode_value, generation)
             self._updates += 1
-            update, urgent = self._updates, self._updates == self._urgent_update
-        if self._time_base.restarts != restarts:
-            self._log.warn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', now)
-        self._publish_state(snapshot, load_w, publish_now=urgent, update=update)
+            number, urgent = self._updates, self._updates == self._urgent_update
+        if update.time_restarted:
+            self._log.warn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', update.now)
+        self._publish_state(update.record, publish_now=urgent, update=number)
         with self._lock:
-            self._published_update = update
+            self._published_update = number
             self._lock.notify_all()
-        self._store.maybe_save(state)
-        self._log_progress(snapshot)
-        self._check_goal(snapshot)
-
-    def _motion_power_w(self, now):
-        """The motion power of the command in force at ``now``, W."""
-        stamp, speed, turn = self._motion
-        if stamp is None or not 0.0 <= now - stamp <= self.params.cmd_vel_timeout_s:
-            return 0.0
-        return self.params.motion_power_w(speed, turn)
+        self._store.maybe_save(update.saved_state)
+        self._log_progress(update.snapshot)
+        self._check_goal(update.snapshot)
 
     def _read_mode_param(self):
         try:
             return self._mode_param.get()
         except (ConnectionError, OSError) as error:  # master gone: keep the mode
             self._log.warn_throttle(10.0, 'cannot read %s: %s', self._mode_param.name, error)
-            return _INVALID
-
-    def _follow(self, raw_mode):
-        mode = parse_mode(raw_mode)
-        if mode is _INVALID:
-            if raw_mode is not _INVALID:
-                self._log_invalid_mode(raw_mode)
-            return
-        self._invalid_logged = (None, 0.0)
-        if mode is not self.model.mode:
-            self._mode_source = 'parameter'
-            self.model.set_mode(mode)
+            return UNREADABLE
 
     def _set_mode(self, mode, source):
         """Set the mode and the parameter together (a goal, the charger contact, set_charging)."""
         with self._lock:
-            self._advance_to_now()
-            self._mode_generation += 1
             self._mode_param.set(1 if mode is Mode.CHARGE else 0)
-            self._mode_source = source
-            self.model.set_mode(mode)
+            self.battery.set_mode(mode, source)
             self._wake_up()
 
-    def _log_invalid_mode(self, raw_mode):
-        """An error at once for each new bad value, then every INVALID_LOG_PERIOD_S while it stays."""
-        value, logged_at = self._invalid_logged
-        now = time.monotonic()
-        if value == repr(raw_mode) and now - logged_at < INVALID_LOG_PERIOD_S:
-            return
-        self._invalid_logged = (repr(raw_mode), now)
-        self._log.error('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
-                     '(hold); keeping %s', self._mode_param.name, raw_mode, self.model.mode.value)
-
-    def _publish_state(self, snapshot, load_w=0.0, publish_now=False, update=0):
-        """Hand this update's state to battery_state_pub: on the state topic while someone subscribes,
+    def _publish_state(self, record, publish_now=False, update=0):
+        """Hand this update's record to battery_state_pub: on the state topic while someone subscribes,
         and to the in-process listeners (its message is built only if one of them needs it)."""
-        with self._lock:
-            faults = set(self._faults)
-        state = SimState(snapshot, self.params, rospy.Time.now(), load_w, faults, publish_now, update,
-                         self._add_noise if 'measurement_noise' in faults else None)
+        state = SimState(record, rospy.Time.now(), publish_now, update)
         self._latest_state = state
         if self._state_pub.get_num_connections() > 0:
             self._state_pub.publish(state.message())
         for listener in self._state_listeners:
             listener(state)
-
-    def _add_noise(self, battery):
-        """The measurement_noise fault: Gaussian noise on the reported voltage and current."""
-        battery.voltage = noisy_voltage(battery.voltage, self._noise.gauss(0.0, self.params.voltage_noise_v))
-        battery.current = noisy_current(battery.current, self._noise.gauss(0.0, self.params.current_noise_a),
-                                        battery.power_supply_status)
-        battery.cell_voltage = [battery.voltage / len(battery.cell_voltage)] * len(battery.cell_voltage)
 
     def _log_progress(self, snapshot):
         whole = int(snapshot.percentage)
@@ -458,10 +330,10 @@ class BatterySimServer:
             goal = self._server.accept_new_goal()
             if goal is None:
                 return
-            self._goal = ActiveGoal(goal.charge_state)
+            self._goal = Goal(goal.charge_state)
             self._set_mode(self._goal.mode, 'goal')
-            snapshot = self._snapshot_now()
-            self._log.info('goal: %s from %.1f %%', self._goal.mode.value, snapshot.percentage)
+            snapshot = self.battery.snapshot_now()
+            self._log.info_throttle(LOG_PERIOD_S, 'goal: %s from %.1f %%', self._goal.mode.value, snapshot.percentage)
             if self._server.is_preempt_requested():   # cancelled before it was accepted
                 self._preempt('cancel')
             else:
@@ -469,52 +341,35 @@ class BatterySimServer:
         elif self._goal is not None and self._server.is_preempt_requested():
             self._preempt('cancel')
 
-    def _snapshot_now(self):
-        with self._lock:
-            self.model.step(0.0)
-            return self.model.snapshot()
-
     def _check_goal(self, snapshot):
         """Feedback for the active goal, and its end if it has reached one."""
-        goal = self._goal
-        if goal is None:
+        if self._goal is None:
             return
         self._server.publish_feedback(battery_simFeedback(battery_percentage=snapshot.percentage))
-        if snapshot.status is goal.target and snapshot.cut_off in (None, CutOff.UNDER_VOLTAGE):
-            self._finish(self._server.set_succeeded, goal.done_text, self._log.info)
-        elif snapshot.mode is not goal.mode:
-            self._finish(self._server.set_aborted, 'Aborted at %.1f %%: %s was changed to %s (%s) while %s' % (
-                snapshot.percentage, self._mode_param.name, snapshot.mode.value,
-                self._mode_source, goal.mode.value), self._log.warn)
-        elif snapshot.status is Status.EMPTY:
-            self._finish(self._server.set_aborted, 'Aborted at %.1f %%: the pack protection cut the load off (%s)'
-                         % (snapshot.percentage, snapshot.cut_off.value), self._log.warn)
+        end = self.battery.goal_end(self._goal, snapshot)
+        if end is not None:
+            self._finish(end)
 
     def _preempt(self, reason):
         """Preempt the active goal, if any, saying why and at what level."""
         if self._goal is not None:
-            snapshot = self._snapshot_now()
-            self._finish(self._server.set_preempted, 'Preempted at %.1f %% (%s, %s)' % (
-                snapshot.percentage, reason, snapshot.status.value), self._log.info)
+            self._finish(self.battery.preempted(reason))
 
-    def _finish(self, set_state, text, log):
+    def _finish(self, end):
         self._goal = None
-        set_state(battery_simResult(battery_status=text), text)
-        log('goal ended: %s', text)
+        set_state, log = {GoalEnd.SUCCEEDED: (self._server.set_succeeded, self._log.info_throttle),
+                          GoalEnd.ABORTED: (self._server.set_aborted, self._log.warn_throttle),
+                          GoalEnd.PREEMPTED: (self._server.set_preempted, self._log.info_throttle)}[end.outcome]
+        set_state(battery_simResult(battery_status=end.text), end.text)
+        log(LOG_PERIOD_S, 'goal ended: %s', end.text)
 
     # -- inputs (subscriber and service threads) ---------------------------------
 
     def _on_cmd_vel(self, twist):
-        speed, turn = abs(twist.linear.x), abs(twist.angular.z)
-        if not (speed <= MAX_SPEED_MPS and turn <= MAX_TURN_RADPS):   # also NaN
-            self._log.error_throttle(10.0, 'ignoring a cmd_vel beyond what a robot can do (|linear.x| %r m/s, '
-                                  '|angular.z| %r rad/s; at most %g and %g)', speed, turn, MAX_SPEED_MPS,
-                                  MAX_TURN_RADPS)
-            return
-        with self._lock:
-            now = self._clock()
-            self._account_motion(now)   # the previous command's energy up to now
-            self._motion = (now, speed, turn)
+        try:
+            self.battery.on_cmd_vel(twist.linear.x, twist.angular.z)
+        except BatteryError as error:
+            self._log.error_throttle(10.0, '%s', error)
 
     def _on_contact(self, msg):
         self._change_contact(bool(msg.data), 'charger contact')
@@ -525,85 +380,45 @@ class BatterySimServer:
         return SetBoolResponse(success=True, message='charger %s' % ('connected' if request.data else 'disconnected'))
 
     def _change_contact(self, connected, source):
-        """Only a change acts: connected -> charge, disconnected -> discharge."""
+        """Only a change acts: connected -> charge, disconnected -> discharge (the parameter follows)."""
         with self._lock:
-            changed, self._contact = connected != self._contact, connected
+            changed = self.battery.change_contact(connected, source)
+            if changed:
+                self._mode_param.set(1 if connected else 0)
+                self._wake_up()
         if changed:
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger %s', source, 'connected' if connected else 'disconnected')
-            self._set_mode(Mode.CHARGE if connected else Mode.DISCHARGE, source)
+            self._log.info_throttle(LOG_PERIOD_S, '%s: charger %s', source,
+                                    'connected' if connected else 'disconnected')
 
-    def _set_load(self, request):
-        name, power_w = request.name.strip(), request.power_w
-        if not name:
-            return SetLoadResponse(success=False, message='name must not be empty')
-        error = load_power_error(self.params, 'power_w', power_w, power_w, 'it')
-        if error:
-            return SetLoadResponse(success=False, message=error)
-        with self._service_change():
-            total_w = sum(p for n, p in self._payloads.items() if n != name) + power_w
-            error = load_power_error(self.params, 'power_w', power_w, total_w, 'the payload loads')
-            if error:
-                return SetLoadResponse(success=False, message=error)
-            if power_w > 0.0:
-                self._payloads[name] = power_w
-            else:
-                self._payloads.pop(name, None)
-            self.model.set_extra_load(PAYLOAD_LOAD, power_w=sum(self._payloads.values()))
-            total = sum(self._payloads.values())
-        return SetLoadResponse(success=True, message='%s: %g W; payload loads now %g W' % (name, power_w, total))
-
-    def _set_state(self, request):
-        def given(value):
-            return None if math.isnan(value) else value
-        percentage = given(request.percentage)
+    def _service(self, response_class, change):
+        """Run a service's ``change()`` (its reply's text) as a published change; a refusal replies
+        success false with the battery's reason."""
         try:
             with self._service_change():
-                self.model.set_state(None if percentage is None else percentage / 100.0,
-                                     given(request.temperature_c), given(request.state_of_health))
-        except ValueError as error:
-            return SetStateResponse(success=False, message=str(error).replace('state_of_charge', 'percentage/100'))
-        return SetStateResponse(success=True, message='state set')
+                message = change()
+        except BatteryError as error:
+            return response_class(success=False, message=str(error))
+        return response_class(success=True, message=message)
+
+    def _set_load(self, request):
+        return self._service(SetLoadResponse, lambda: self.battery.set_load(request.name, request.power_w))
+
+    def _set_state(self, request):
+        return self._service(SetStateResponse, lambda: self.battery.set_state(
+            request.percentage, request.temperature_c, request.state_of_health))
 
     def _reset(self, request):
-        with self._service_change():
-            self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
-                                 max(MIN_STATE_OF_HEALTH,
-                                     1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
-            self.model.discharged_ah = 0.0
-            cleared, self._faults = sorted(self._faults), set()   # the start-up state has no faults
-            self.model.set_charger_fault(False)
-        if cleared:
-            self._log.warn('reset: faults cleared: %s', ', '.join(cleared))
-        return TriggerResponse(success=True, message='reset to %.1f %%, mode kept%s' % (
-            100.0 * self._initial_soc, '; faults cleared: ' + ', '.join(cleared) if cleared else ''))
+        return self._service(TriggerResponse, self.battery.reset)
 
     def _inject_fault(self, request):
-        if request.fault not in FAULTS:
-            return InjectFaultResponse(success=False, message='unknown fault %r; known faults: %s' % (
-                request.fault, '; '.join('%s (%s)' % item for item in sorted(FAULTS.items()))))
-        with self._service_change():
-            if request.active:
-                self._faults.add(request.fault)
-            else:
-                self._faults.discard(request.fault)
-            if request.fault == 'charger_fault':
-                self.model.set_charger_fault(request.active)
-        self._log.warn('fault %s %s', request.fault, 'injected' if request.active else 'cleared')
-        return InjectFaultResponse(success=True, message='%s %s' % (request.fault, 'active' if request.active
-                                                                      else 'cleared'))
+        return self._service(InjectFaultResponse, lambda: self.battery.inject_fault(request.fault, request.active))
 
     def _predict(self, request):
-        """What the request's plan would do, from a copy of the model taken under the lock: the copy is
-        brought to now at its present loads, and the plan's motion takes the place of cmd_vel's."""
+        """What the request's plan would do, from a copy of the model brought to now (changes nothing)."""
         try:
             segments = plan_from_arrays(request.duration_s, request.current_a, request.power_w,
                                         request.speed_mps, request.turn_radps)
-            with self._lock:
-                model = copy.deepcopy(self.model)
-                behind_s = self._time_base.pending(self._clock())
-            model.step(behind_s)
-            model.set_extra_load(MOTION_LOAD)
-            result = predict(model, segments, request.charge_to_percentage)
+            result = predict(self.battery.model_for_prediction(), segments, request.charge_to_percentage)
         except PredictionError as error:
             nan = math.nan
             return PredictResponse(success=False, message=str(error), end_percentage=nan, end_voltage_v=nan,
@@ -618,29 +433,16 @@ class BatterySimServer:
 
         The .cfg gives no bounds, so dynamic_reconfigure clamps nothing before this check.
         """
-        time_scale = config['time_scale']
         with self._service_change():   # the time so far at the old settings (and time_scale)
-            if not (is_number(time_scale) and time_scale > 0):
-                self._log.error('dynamic_reconfigure: time_scale = %r is invalid: must be a number > 0; keeping %g',
-                             time_scale, self._time_scale)
-            else:
-                self._time_scale = time_scale
-                if not self._sim_time:
-                    self._time_base.time_scale = time_scale
-            params = self.params
-            for name in LIVE_PARAMETERS:
-                if config[name] == getattr(params, name):
-                    continue
-                try:
-                    params = replace(params, **{name: float(config[name])})
-                except ParameterError as error:
-                    self._log.error('dynamic_reconfigure: %s; keeping %g', error, getattr(params, name))
-            self.params = self.model.params = params
-        config['time_scale'] = self._time_scale
-        for name in LIVE_PARAMETERS:
-            config[name] = getattr(params, name)
+            in_force = self.battery.live_values()
+            for name, value in in_force.items():
+                if config[name] != value:
+                    try:
+                        self.battery.set_live(name, config[name])
+                    except BatteryError as error:
+                        self._log.error('dynamic_reconfigure: %s', error)
+            config.update(self.battery.live_values())
         return config
-
 
 class _LiveSettings(ReconfigureServer):
     """dynamic_reconfigure's server, starting from the values in force rather than from the parameter
@@ -663,21 +465,6 @@ class _LatestStateOnConnect(rospy.SubscribeListener):
         state = self._server._latest_state
         if state is not None:
             peer_publish(state.message())
-
-
-def noisy_voltage(voltage_v, noise_v):
-    """A noisy voltage reading: never <= 0 or beyond twice the true value (sigma is bounded by the config)."""
-    return min(max(voltage_v + noise_v, 0.5 * voltage_v), 2.0 * voltage_v)
-
-
-def noisy_current(current_a, noise_a, power_supply_status):
-    """A noisy current reading whose sign never contradicts the status (negative discharging, positive charging)."""
-    noisy = current_a + noise_a
-    if power_supply_status == BatteryState.POWER_SUPPLY_STATUS_DISCHARGING:
-        return min(noisy, 0.0)
-    if power_supply_status == BatteryState.POWER_SUPPLY_STATUS_CHARGING:
-        return max(noisy, 0.0)
-    return noisy
 
 
 def main():

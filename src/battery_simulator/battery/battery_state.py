@@ -1,75 +1,44 @@
-"""Model snapshot -> sensor_msgs/BatteryState and BatterySimState (no rospy: message classes only)."""
-import math
-
+"""A battery's record (core/battery.py) -> sensor_msgs/BatteryState and BatterySimState (no rospy:
+message classes only)."""
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.core.battery_model import Health, Status
+from battery_simulator.core.battery import BatteryRecord
 from battery_simulator.msg import BatterySimState
 
-_SUPPLY_STATUS = {
-    Status.CHARGING: BatteryState.POWER_SUPPLY_STATUS_CHARGING,
-    Status.DISCHARGING: BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
-    Status.FULL: BatteryState.POWER_SUPPLY_STATUS_FULL,
-    Status.EMPTY: BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING,  # the load is disconnected
-    Status.NOT_CHARGING: BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING,
-}
-_SUPPLY_HEALTH = {
-    Health.GOOD: BatteryState.POWER_SUPPLY_HEALTH_GOOD,
-    Health.OVERHEAT: BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT,
-    Health.COLD: BatteryState.POWER_SUPPLY_HEALTH_COLD,
-}
-#: BatterySimState.charging_state (and the diagnostics' "Charging State")
-CHARGING_STATE = {
-    Status.CHARGING: 'Charging',
-    Status.DISCHARGING: 'Discharging',
-    Status.FULL: 'Full',
-    Status.NOT_CHARGING: 'Not Charging',
-    Status.EMPTY: 'Empty',
-}
 
-
-def to_battery_state(snapshot, params, stamp=None, frame_id=''):
-    """A BatteryState filled from a model snapshot, in pack units (V, A, Ah, degC)."""
-    msg = BatteryState()
-    if stamp is not None:
-        msg.header.stamp = stamp
-    msg.header.frame_id = frame_id
-    msg.voltage = snapshot.voltage_v
-    msg.temperature = snapshot.temperature_c
-    msg.current = snapshot.current_a
-    msg.charge = snapshot.charge_ah
-    msg.capacity = snapshot.capacity_ah
-    msg.design_capacity = snapshot.design_capacity_ah
-    msg.percentage = snapshot.percentage / 100.0
-    msg.power_supply_status = _SUPPLY_STATUS[snapshot.status]
-    msg.power_supply_health = _SUPPLY_HEALTH[snapshot.health]
-    msg.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_LION
-    msg.present = True
-    msg.cell_voltage = [snapshot.cell_voltage_v] * params.cells_series
-    msg.cell_temperature = [snapshot.temperature_c] * params.cells_series
-    msg.location = params.location
-    msg.serial_number = params.serial_number
+def fill(msg, fields):
+    """Set a message's fields from a dict (the record's fields have the messages' names)."""
+    for name, value in fields.items():
+        setattr(msg, name, value)
     return msg
 
 
-def to_sim_state(snapshot, params, stamp=None, load_power_w=0.0, faults=()):
+def battery_state_of(record, stamp=None, frame_id=''):
+    """The BatteryState of a BatteryRecord, in pack units (V, A, Ah, degC)."""
+    msg = fill(BatteryState(), record.battery_fields())
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    return msg
+
+
+def sim_state_of(record, stamp=None):
     """The server's full state message: the BatteryState plus what diagnostics and the gate need."""
-    remaining = snapshot.time_remaining_s
-    return BatterySimState(
-        battery=to_battery_state(snapshot, params, stamp=stamp),
-        charging_state=CHARGING_STATE[snapshot.status],
-        cut_off=snapshot.cut_off.value if snapshot.cut_off is not None else '',
-        cycle_count=snapshot.cycle_count,
-        state_of_health=snapshot.state_of_health,
-        time_remaining_s=remaining if remaining is not None else math.nan,
-        load_power_w=load_power_w,
-        active_faults=sorted(faults),
-        sensor_dropout='sensor_dropout' in faults,
-    )
+    return fill(BatterySimState(battery=battery_state_of(record, stamp=stamp)), record.sim_fields())
+
+
+def to_battery_state(snapshot, params, stamp=None, frame_id=''):
+    """A BatteryState filled from a model snapshot."""
+    return battery_state_of(BatteryRecord(snapshot, params), stamp, frame_id)
+
+
+def to_sim_state(snapshot, params, stamp=None, load_power_w=0.0, faults=()):
+    """A BatterySimState filled from a model snapshot."""
+    return sim_state_of(BatteryRecord(snapshot, params, load_power_w, faults), stamp)
 
 
 class SimState:
-    """One model update's state, its BatterySimState built only when someone needs it.
+    """One model update's record as the publisher takes it, its BatterySimState built only when needed.
 
     A fleet host updates hundreds of batteries ten times a second but publishes
     each once a second: building every message at every update would be most
@@ -77,24 +46,20 @@ class SimState:
     plain attributes; ``message()`` builds (once) the rest.
     """
 
-    def __init__(self, snapshot, params, stamp, load_power_w=0.0, faults=(), publish_now=False, update=0,
-                 add_noise=None):
-        self.percentage = snapshot.percentage / 100.0            # as BatteryState.percentage
-        self.power_supply_status = _SUPPLY_STATUS[snapshot.status]
-        self.sensor_dropout = 'sensor_dropout' in faults
+    def __init__(self, record, stamp, publish_now=False, update=0):
+        self.percentage = record.percentage
+        self.power_supply_status = record.power_supply_status
+        self.sensor_dropout = record.sensor_dropout
         self.publish_now = publish_now
         self.update = update
-        self._parts = (snapshot, params, stamp, load_power_w, faults, add_noise)
+        self._record, self._stamp = record, stamp
         self._message = None
 
     def message(self):
         """The BatterySimState (built at the first call; noise, if any, drawn then)."""
         if self._message is None:
-            snapshot, params, stamp, load_power_w, faults, add_noise = self._parts
-            msg = to_sim_state(snapshot, params, stamp=stamp, load_power_w=load_power_w, faults=faults)
+            msg = sim_state_of(self._record, stamp=self._stamp)
             msg.publish_now, msg.update = self.publish_now, self.update
-            if add_noise is not None:
-                add_noise(msg.battery)
             self._message = msg
         return self._message
 

@@ -26,12 +26,10 @@ server is back.
   - ``battery_simulator/status_sent`` (std_msgs/UInt64): a service's change is out (the server then replies)
   - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): status "<node>: Battery"
 """
-import math
 import threading
 import time
 
 import rospy
-from diagnostic_msgs.msg import DiagnosticStatus
 from diagnostic_updater import DiagnosticStatusWrapper
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
@@ -39,11 +37,11 @@ from std_msgs.msg import Bool, UInt64
 from battery_simulator.battery.battery_state import ReceivedState
 from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop
+from battery_simulator.core import diagnostics
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros import topics
 from battery_simulator.ros.startup import StartupError, checked_param, init_node, is_number, signals_held
-
 
 
 def _fraction(value):
@@ -168,29 +166,14 @@ class BatteryStatePublisher:
         with self._lock:
             latest, stale = self._latest, time.monotonic() - self._received_at > self._stale_timeout_s
         if latest is None:
-            status.summary(DiagnosticStatus.WARN, 'no data from the battery_simulator server yet')
+            status.summary(*diagnostics.no_data_yet())
             status.hardware_id = 'none'
             return status
         latest = latest.message()
-        battery = latest.battery
-        status.hardware_id = battery.serial_number or 'none'
-        level, message = battery_level(latest, stale, self._alarms['low'].threshold,
-                                       self._alarms['critical'].threshold)
-        status.summary(level, message)
-        remaining = latest.time_remaining_s
-        for key, value in (
-                ('Voltage (V)', '%.3f' % battery.voltage),
-                ('Current (A)', '%.3f' % battery.current),
-                ('Charge (Ah)', '%.3f' % battery.charge),
-                ('Capacity (Ah)', '%.3f' % battery.capacity),
-                ('Design Capacity (Ah)', '%.3f' % battery.design_capacity),
-                ('Percentage (%)', '%.1f' % (100.0 * battery.percentage)),
-                ('Temperature (C)', '%.1f' % battery.temperature),
-                ('Charging State', latest.charging_state),
-                ('Health', HEALTH_TEXT.get(battery.power_supply_health, 'Unknown')),
-                ('Cycle Count', '%.2f' % latest.cycle_count),
-                ('State of Health (%)', '%.1f' % (100.0 * latest.state_of_health)),
-                ('Time Remaining (min)', '' if math.isnan(remaining) else '%.1f' % (remaining / 60.0))):
+        status.hardware_id = latest.battery.serial_number or 'none'
+        status.summary(*diagnostics.battery_level(latest, stale, self._alarms['low'].threshold,
+                                                  self._alarms['critical'].threshold))
+        for key, value in diagnostics.battery_values(latest):
             status.add(key, value)
         return status
 
@@ -205,33 +188,6 @@ def publish_at_rate(publishers, rate_hz):
             rate.sleep()
         except rospy.ROSInterruptException:
             break
-
-
-HEALTH_TEXT = {
-    BatteryState.POWER_SUPPLY_HEALTH_GOOD: 'Good',
-    BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT: 'Overheat',
-    BatteryState.POWER_SUPPLY_HEALTH_COLD: 'Cold',
-    BatteryState.POWER_SUPPLY_HEALTH_DEAD: 'Dead',
-    BatteryState.POWER_SUPPLY_HEALTH_OVERVOLTAGE: 'Overvoltage',
-    BatteryState.POWER_SUPPLY_HEALTH_UNSPEC_FAILURE: 'Failure',
-    BatteryState.POWER_SUPPLY_HEALTH_UNKNOWN: 'Unknown',
-}
-
-
-def battery_level(state, stale, low, critical):
-    """(DiagnosticStatus level, message) for a BatterySimState: ERROR critical or empty, WARN low/unhealthy/stale."""
-    battery = state.battery
-    if state.charging_state == 'Empty':
-        return DiagnosticStatus.ERROR, 'Empty: %s' % (state.cut_off or 'load cut off')
-    if battery.percentage < critical:
-        return DiagnosticStatus.ERROR, 'Critical: %.1f %%' % (100.0 * battery.percentage)
-    if stale:
-        return DiagnosticStatus.WARN, 'Stale: no update from the battery_simulator server'
-    if battery.power_supply_health != BatteryState.POWER_SUPPLY_HEALTH_GOOD:
-        return DiagnosticStatus.WARN, 'Health: %s' % HEALTH_TEXT.get(battery.power_supply_health, 'Unknown')
-    if battery.percentage < low:
-        return DiagnosticStatus.WARN, 'Low: %.1f %%' % (100.0 * battery.percentage)
-    return DiagnosticStatus.OK, '%s, %.1f %%' % (state.charging_state, 100.0 * battery.percentage)
 
 
 def main():
