@@ -63,12 +63,13 @@ from battery_simulator.cfg import BatterySimConfig
 from battery_simulator.core.battery import (LIVE_PARAMETERS, UNREADABLE, Battery, BatteryError, Goal, GoalEnd,
                                             noisy_current, noisy_voltage)
 from battery_simulator.core.battery_model import Mode
-from battery_simulator.core.parameters import ParameterError, default_config_path, load_yaml
+from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
+from battery_simulator.core.settings import BATTERY_SETTINGS
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros import topics
 from battery_simulator.ros.cached_param import CachedParam
-from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number, signals_held,
+from battery_simulator.ros.startup import (StartupError, init_node, read_private_settings, signals_held,
                                            wait_for_rosout)
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, PredictResponse, SetLoad,
                                    SetLoadResponse, SetState, SetStateResponse)
@@ -80,26 +81,15 @@ __all__ = ['BatterySimServer', 'read_settings', 'main', 'noisy_current', 'noisy_
 
 
 def read_settings():
-    """All start-up parameters, checked; raises StartupError."""
-    config = checked_param('~config', str(default_config_path()),
-                           lambda v: isinstance(v, str) and v != '', 'a path to a YAML file')
+    """All start-up parameters (core/settings.py BATTERY_SETTINGS), checked; raises StartupError."""
+    settings = read_private_settings(BATTERY_SETTINGS)
     try:
-        params = load_yaml(config)
+        settings['params'] = load_yaml(settings['config'])
     except ParameterError as error:
-        raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), config, error)) \
-            from None
-    return dict(
-        params=params,
-        params_path=config,
-        time_scale=checked_param('~time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0'),
-        update_rate=checked_param('~update_rate', 10.0, lambda v: is_number(v) and 0 < v <= 1000,
-                                  'a number in (0, 1000] Hz'),
-        initial_percentage=checked_param('~initial_percentage', 100.0,
-                                         lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]'),
-        charging=checked_param('~charging', False, lambda v: v in (True, False, 0, 1),
-                               'true or false (or 1 / 0)'),
-        state_file=checked_param('~state_file', '', lambda v: isinstance(v, str), 'a file path (or empty)'),
-    )
+        raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), settings['config'],
+                                                                 error)) from None
+    settings['params_path'] = settings.pop('config')
+    return settings
 
 
 class BatterySimServer:

@@ -10,11 +10,12 @@ A fleet host keeps every robot's state in one parameter (FleetStore), written
 at a bounded rate whatever the number of robots, so the master stays idle.
 """
 import json
-import os
 import threading
 import time
 
 import rospy
+
+from battery_simulator.core.state_file import read_state_file, write_state_file
 
 SAVE_EVERY_PERCENT = 0.1   # save when the level moved this much ...
 SAVE_EVERY_S = 2.0         # ... or this long (wall) has passed
@@ -35,13 +36,12 @@ class StateStore:
         saved = rospy.get_param(self.param_name, None)
         if saved is not None:
             return saved, 'the parameter server (%s)' % self.param_name
-        if self.state_file and os.path.exists(self.state_file):
-            try:
-                with open(self.state_file, encoding='utf-8') as stream:
-                    return json.load(stream), self.state_file
-            except (OSError, ValueError) as error:
-                rospy.logwarn('cannot read state file %s (%s): starting fresh', self.state_file, error)
-        return None, None
+        try:
+            saved = read_state_file(self.state_file)
+        except (OSError, ValueError) as error:
+            rospy.logwarn('cannot read state file %s (%s): starting fresh', self.state_file, error)
+            return None, None
+        return (saved, self.state_file) if saved is not None else (None, None)
 
     def maybe_save(self, state):
         """Save if the level moved or time passed since the last save (called every update)."""
@@ -68,11 +68,8 @@ class StateStore:
 
     def _save_file(self, state, now):
         self._file_saved_at = now
-        temporary = self.state_file + '.tmp'
         try:
-            with open(temporary, 'w', encoding='utf-8') as stream:
-                json.dump(state, stream, indent=1)
-            os.replace(temporary, self.state_file)   # never a half-written file
+            write_state_file(self.state_file, state)
         except OSError as error:
             rospy.logerr_throttle(60.0, 'cannot write state file %s: %s', self.state_file, error)
 

@@ -39,30 +39,19 @@ from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop
 from battery_simulator.core import diagnostics
 from battery_simulator.core.level_alarm import LevelAlarm
+from battery_simulator.core.settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros import topics
-from battery_simulator.ros.startup import StartupError, checked_param, init_node, is_number, signals_held
-
-
-def _fraction(value):
-    return is_number(value) and 0.0 <= value <= 1.0
+from battery_simulator.ros.startup import StartupError, init_node, read_private_settings, signals_held
 
 
 def read_settings():
-    """All start-up parameters, checked; raises StartupError."""
-    settings = dict(
-        rate=checked_param('~rate', 1.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz'),
-        frame_id=checked_param('~frame_id', 'battery', lambda v: isinstance(v, str), 'a string'),
-        stale_timeout=checked_param('~stale_timeout', 3.0, lambda v: is_number(v) and v > 0, 'a number > 0 s'),
-        low_percentage=checked_param('~low_percentage', 0.20, _fraction, 'a fraction in [0, 1]'),
-        critical_percentage=checked_param('~critical_percentage', 0.05, _fraction, 'a fraction in [0, 1]'),
-        hysteresis=checked_param('~hysteresis', 0.05, _fraction, 'a fraction in [0, 1]'),
-    )
-    if settings['critical_percentage'] > settings['low_percentage']:
-        raise StartupError('parameter %s = %r is invalid: must be at most ~low_percentage (%g)' % (
-            rospy.resolve_name('~critical_percentage'), settings['critical_percentage'],
-            settings['low_percentage']))
-    return settings
+    """All start-up parameters (core/settings.py PUBLISHER_SETTINGS), checked; raises StartupError."""
+    try:
+        return check_publisher_settings(read_private_settings(PUBLISHER_SETTINGS),
+                                        lambda name: rospy.resolve_name('~' + name), lambda name: '~' + name)
+    except SettingError as error:
+        raise StartupError(str(error)) from None
 
 
 class BatteryStatePublisher:

@@ -30,6 +30,12 @@ def checked_param(name, default, check, allowed):
     return value
 
 
+def read_private_settings(settings):
+    """{name: value} of core/settings.py Settings read as private parameters (``~name``), checked."""
+    return {setting.name: checked_param('~' + setting.name, setting.default, setting.check, setting.allowed)
+            for setting in settings}
+
+
 def wait_for_rosout(timeout_s=2.0):
     """Wait (bounded, wall time) until /rosout listens, so that start-up lines reach rqt_console and tests.
 

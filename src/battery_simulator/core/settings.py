@@ -1,0 +1,71 @@
+"""The start-up settings of the battery nodes, with their rules, written once (no ROS import).
+
+Both front ends read them: the rospy nodes as private parameters
+(``~time_scale``), the rclpy nodes as declared parameters (``time_scale``,
+with a descriptor built from ``description`` and ``allowed``). A bad value
+stops a node with one line: ``parameter NAME = VALUE is invalid: must be ALLOWED``.
+"""
+from collections import namedtuple
+
+from battery_simulator.core.parameters import default_config_path, is_number
+
+
+class SettingError(ValueError):
+    """A bad start-up value; the message names it, its value and what is allowed."""
+
+
+Setting = namedtuple('Setting', 'name default check allowed description live')
+
+
+def _fraction(value):
+    return is_number(value) and 0.0 <= value <= 1.0
+
+
+def _rate(value):
+    return is_number(value) and 0 < value <= 1000
+
+
+#: the battery's own settings (battery_sim_server.py, ROS 2's battery_simulator node, the fleet hosts)
+BATTERY_SETTINGS = (
+    Setting('config', str(default_config_path()), lambda v: isinstance(v, str) and v != '',
+            'a path to a YAML file', 'battery config: a preset plus overrides (YAML)', False),
+    Setting('time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0',
+            'simulated seconds per wall second (ignored under use_sim_time)', True),
+    Setting('update_rate', 10.0, _rate, 'a number in (0, 1000] Hz', 'model updates per second', False),
+    Setting('initial_percentage', 100.0, lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]',
+            'charge at start, %', False),
+    Setting('charging', False, lambda v: v in (True, False, 0, 1), 'true or false (or 1 / 0)',
+            'initial mode: true charges, false discharges', False),
+    Setting('state_file', '', lambda v: isinstance(v, str), 'a file path (or empty)',
+            'JSON file the state is saved to and resumed from (empty: none)', False),
+)
+#: battery_state_pub's settings
+PUBLISHER_SETTINGS = (
+    Setting('rate', 1.0, _rate, 'a number in (0, 1000] Hz', 'battery_status publications per second', False),
+    Setting('frame_id', 'battery', lambda v: isinstance(v, str), 'a string', 'header.frame_id', False),
+    Setting('stale_timeout', 3.0, lambda v: is_number(v) and v > 0, 'a number > 0 s',
+            'warn after this long without an update from the battery, s', False),
+    Setting('low_percentage', 0.20, _fraction, 'a fraction in [0, 1]', 'battery_low below this (0-1)', False),
+    Setting('critical_percentage', 0.05, _fraction, 'a fraction in [0, 1]',
+            'battery_critical below this (0-1, at most low_percentage)', False),
+    Setting('hysteresis', 0.05, _fraction, 'a fraction in [0, 1]',
+            'an event clears above its threshold plus this (0-1)', False),
+)
+
+
+def check_setting(setting, value, shown_name=None):
+    """``value`` if ``setting`` allows it, else SettingError naming ``shown_name`` (default its name)."""
+    if not setting.check(value):
+        raise SettingError('parameter %s = %r is invalid: must be %s'
+                           % (shown_name or setting.name, value, setting.allowed))
+    return value
+
+
+def check_publisher_settings(settings, shown_name=lambda name: name, other_name=lambda name: name):
+    """The rules between publisher settings: critical at most low. SettingError otherwise (naming the
+    bad one as ``shown_name(name)`` and the one it breaks a rule with as ``other_name(name)``)."""
+    if settings['critical_percentage'] > settings['low_percentage']:
+        raise SettingError('parameter %s = %r is invalid: must be at most %s (%g)' % (
+            shown_name('critical_percentage'), settings['critical_percentage'], other_name('low_percentage'),
+            settings['low_percentage']))
+    return settings
