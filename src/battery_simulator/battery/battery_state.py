@@ -2,15 +2,8 @@
 message classes only)."""
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.core.battery import BatteryRecord
+from battery_simulator.core.battery import BatteryRecord, fill_fields as fill
 from battery_simulator.msg import BatterySimState
-
-
-def fill(msg, fields):
-    """Set a message's fields from a dict (the record's fields have the messages' names)."""
-    for name, value in fields.items():
-        setattr(msg, name, value)
-    return msg
 
 
 def battery_state_of(record, stamp=None, frame_id=''):

@@ -22,53 +22,30 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
 from battery_simulator.cli.client_cli import CHOICES
+from battery_simulator.cli.progress import ProgressPrinter
 from battery_simulator.cli.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
 
-SUPPLY_STATUS = {BatteryState.POWER_SUPPLY_STATUS_CHARGING: 'charging',
-                 BatteryState.POWER_SUPPLY_STATUS_DISCHARGING: 'discharging',
-                 BatteryState.POWER_SUPPLY_STATUS_FULL: 'full',
-                 BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING: 'not charging'}
 GOAL_STATES = {GoalStatus.SUCCEEDED: 'succeeded', GoalStatus.ABORTED: 'aborted',
                GoalStatus.PREEMPTED: 'preempted', GoalStatus.REJECTED: 'rejected',
                GoalStatus.RECALLED: 'recalled', GoalStatus.LOST: 'lost'}
-BAR_WIDTH = 30
 LOST_SERVER_S = 3.0   # the server's connection gone this long (wall): the goal is lost
-
-
-def progress_line(percentage, state):
-    """'[#####.....]  50.0 %  11.52 V  -1.50 A  discharging' (state may be None)."""
-    filled = int(round(BAR_WIDTH * min(max(percentage, 0.0), 100.0) / 100.0))
-    line = '[%s%s] %5.1f %%' % ('#' * filled, '.' * (BAR_WIDTH - filled), percentage)
-    if state is not None:
-        line += '  %6.2f V  %+6.2f A  %s' % (state.voltage, state.current,
-                                             SUPPLY_STATUS.get(state.power_supply_status, 'unknown'))
-    return line
 
 
 class ProgressView:
     """Redraws one progress line from action feedback and battery_status."""
 
     def __init__(self, stream):
-        self._stream = stream
         self._lock = threading.Lock()
-        self._state = None
-        self._last_whole = None
+        self._printer = ProgressPrinter(stream)
         self._sub = rospy.Subscriber('battery_status', BatteryState, self._on_state, queue_size=1)
 
     def _on_state(self, msg):
         with self._lock:
-            self._state = msg
+            self._printer.state = msg
 
     def on_feedback(self, feedback):
         with self._lock:
-            line = progress_line(feedback.battery_percentage, self._state)
-            whole = int(feedback.battery_percentage)
-            if self._stream.isatty():
-                self._stream.write('\r' + line + '   ')
-            elif whole != self._last_whole:  # a log, not a terminal: a line per percent
-                self._stream.write(line + '\n')
-            self._last_whole = whole
-        self._stream.flush()
+            self._printer.on_feedback(feedback.battery_percentage)
 
 
 class GoalWatch:

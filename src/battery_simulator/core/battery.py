@@ -460,6 +460,13 @@ class Battery:
             self.model.params = params
 
 
+def fill_fields(msg, fields):
+    """Set a message's fields from a record's dict (the names are the messages', in ROS 1 and ROS 2)."""
+    for name, value in fields.items():
+        setattr(msg, name, value)
+    return msg
+
+
 def noisy_voltage(voltage_v, noise_v):
     """A noisy voltage reading: never <= 0 or beyond twice the true value (sigma is bounded by the config)."""
     return min(max(voltage_v + noise_v, 0.5 * voltage_v), 2.0 * voltage_v)

@@ -1,6 +1,7 @@
 """A battery's state in a JSON file (``state_file``): read at start, written atomically (no ROS import)."""
 import json
 import os
+import time
 
 
 def read_state_file(path):
@@ -17,3 +18,87 @@ def write_state_file(path, state):
     with open(temporary, 'w', encoding='utf-8') as stream:
         json.dump(state, stream, indent=1)
     os.replace(temporary, path)
+
+
+SAVE_EVERY_PERCENT = 0.1   # save when the level moved this much ...
+SAVE_EVERY_S = 2.0         # ... or this long (wall) has passed
+FLEET_SAVE_PERIOD_S = 0.5  # a fleet's file is written at most this often
+
+
+class StateFileKeeper:
+    """Keeps one battery's state in a state file (the format battery_sim_server.py's ~state_file has):
+    written when the level moved SAVE_EVERY_PERCENT or SAVE_EVERY_S passed, and at shutdown.
+    ``log(text)`` reports a file that cannot be read or written."""
+
+    def __init__(self, path, log=None, clock=time.monotonic):
+        self.path = path
+        self._log = log or (lambda text: None)
+        self._clock = clock
+        self._saved = (None, -SAVE_EVERY_S)   # (level, time) of the last write
+
+    def load(self):
+        """The saved state, or None (no file); a file that cannot be read is reported and ignored."""
+        try:
+            return read_state_file(self.path)
+        except (OSError, ValueError) as error:
+            self._log('cannot read state file %s (%s): starting fresh' % (self.path, error))
+            return None
+
+    def maybe_save(self, state):
+        """Write ``state`` if its level moved or time passed since the last write."""
+        saved_level, saved_at = self._saved
+        level = 100.0 * state['state_of_charge']
+        if saved_level is None or abs(level - saved_level) >= SAVE_EVERY_PERCENT or \
+                self._clock() - saved_at >= SAVE_EVERY_S:
+            self.save_now(state)
+
+    def save_now(self, state):
+        try:
+            write_state_file(self.path, state)
+            self._saved = (100.0 * state['state_of_charge'], self._clock())
+        except OSError as error:
+            self._log('cannot write state file %s: %s' % (self.path, error))
+
+
+class FleetStateFile:
+    """Every robot's state of a fleet host in one state file ({"robots": {name: state}}), written at
+    most every FLEET_SAVE_PERIOD_S whatever the number of robots, and at shutdown."""
+
+    def __init__(self, path, log=None, clock=time.monotonic):
+        self.path = path
+        self._log = log or (lambda text: None)
+        self._clock = clock
+        self._states = {}
+        self._written_at = -FLEET_SAVE_PERIOD_S
+        try:
+            saved = read_state_file(path)
+            self._saved = saved.get('robots', {}) if isinstance(saved, dict) else {}
+        except (OSError, ValueError, AttributeError) as error:
+            self._log('cannot read state file %s (%s): starting fresh' % (path, error))
+            self._saved = {}
+
+    def robot(self, name):
+        """The keeper of one robot's state (load, maybe_save, save_now)."""
+        return _RobotKeeper(self, name)
+
+    def write_if_due(self, force=False):
+        if self._states and (force or self._clock() - self._written_at >= FLEET_SAVE_PERIOD_S):
+            self._written_at = self._clock()
+            try:
+                write_state_file(self.path, {'robots': self._states})
+            except OSError as error:
+                self._log('cannot write state file %s: %s' % (self.path, error))
+
+
+class _RobotKeeper:
+    def __init__(self, fleet, name):
+        self._fleet, self._name = fleet, name
+
+    def load(self):
+        return self._fleet._saved.get(self._name)
+
+    def maybe_save(self, state):
+        self._fleet._states[self._name] = state
+
+    def save_now(self, state):
+        self._fleet._states[self._name] = state

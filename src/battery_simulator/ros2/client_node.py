@@ -1,0 +1,101 @@
+"""``battery_sim_client`` (ROS 2): send a charge (1) or discharge (0) goal and show progress.
+
+    ros2 run battery_simulator battery_sim_client 1|0|charge|discharge [--timeout S] [--ros-args ...]
+
+The same command line and exit codes as battery_sim_client.py on ROS 1: 0 when
+the goal succeeds; 1 when it is aborted or cancelled or the server goes away;
+2 for bad arguments (no goal is sent); 3 when no action server answers within
+--server-timeout; 4 on timeout (the goal is cancelled); 130 on Ctrl-C or SIGTERM
+(the goal is cancelled first).
+"""
+import signal
+import sys
+import time
+
+from battery_simulator.cli.client_cli import CHOICES, parse_arguments
+
+STEP_S = 0.1
+
+
+class _Stop(Exception):
+    pass
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    ros_args = argv[argv.index('--ros-args'):] if '--ros-args' in argv else []
+    ours = argv[:argv.index('--ros-args')] if ros_args else argv
+    args = parse_arguments(ours)
+
+    def _stop(signum, frame):
+        raise _Stop()
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
+    import rclpy
+    from action_msgs.msg import GoalStatus
+    from rclpy.action import ActionClient
+    from rclpy.signals import SignalHandlerOptions
+    from sensor_msgs.msg import BatteryState
+
+    from battery_simulator.action import BatterySim
+    from battery_simulator.cli.progress import ProgressPrinter
+    from battery_simulator.ros2.status_front import STATUS_QOS
+
+    rclpy.init(args=['battery_sim_client'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node('battery_sim_client')
+    client = ActionClient(node, BatterySim, 'battery_simulator')
+    printer = ProgressPrinter(sys.stdout)
+    node.create_subscription(BatteryState, 'battery_status', lambda msg: setattr(printer, 'state', msg), STATUS_QOS)
+    charge = CHOICES[args.goal]
+    goal_handle = None
+    code = 1
+    try:
+        if not client.wait_for_server(timeout_sec=args.server_timeout):
+            print('battery_sim_client: no action server %s after %g s'
+                  % (node.resolve_topic_name('battery_simulator'), args.server_timeout), file=sys.stderr)
+            code = 3
+            return
+        print('%s the battery...' % ('Charging' if charge else 'Discharging'), flush=True)
+        sent = client.send_goal_async(BatterySim.Goal(charge_state=charge),
+                                      feedback_callback=lambda fb: printer.on_feedback(fb.feedback.battery_percentage))
+        while not sent.done():
+            rclpy.spin_once(node, timeout_sec=STEP_S)
+        goal_handle = sent.result()
+        if not goal_handle.accepted:
+            print('Result: (none) (rejected)')
+            return
+        result = goal_handle.get_result_async()
+        deadline = time.monotonic() + args.timeout if args.timeout else None
+        while not result.done():
+            rclpy.spin_once(node, timeout_sec=STEP_S)
+            if deadline is not None and time.monotonic() >= deadline:
+                _cancel(node, goal_handle)
+                print('\ntimed out after %g s; goal cancelled' % args.timeout)
+                code = 4
+                return
+        if sys.stdout.isatty():
+            print()
+        answer = result.result()
+        state = {GoalStatus.STATUS_SUCCEEDED: 'succeeded', GoalStatus.STATUS_ABORTED: 'aborted',
+                 GoalStatus.STATUS_CANCELED: 'cancelled'}.get(answer.status, 'status %d' % answer.status)
+        print('Result: %s (%s)' % (answer.result.battery_status, state))
+        code = 0 if answer.status == GoalStatus.STATUS_SUCCEEDED else 1
+    except _Stop:
+        if goal_handle is not None:
+            _cancel(node, goal_handle)
+        print('\ncancelled')
+        code = 130
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        node.destroy_node()
+        rclpy.try_shutdown()
+        sys.exit(code)
+
+
+def _cancel(node, goal_handle):
+    import rclpy
+    cancelled = goal_handle.cancel_goal_async()
+    deadline = time.monotonic() + 5.0
+    while not cancelled.done() and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=STEP_S)

@@ -1,0 +1,233 @@
+"""``battery_fleet`` (ROS 2): N batteries in one process, Part 3's semantics.
+
+    ros2 run battery_simulator battery_fleet --ros-args -p robots:=100
+    ros2 run battery_simulator battery_fleet --ros-args -p robots:=/path/robots.yaml
+
+Each robot ``<name>`` gets the names one ``battery_sim`` shows under
+``--ros-args -r __ns:=/<name>``: a node ``/<name>/battery_simulator`` with its
+own ``charging`` and live parameters, the action, the services, ``cmd_vel``,
+``charger_contact``, ``battery_status``, ``battery_low``, ``battery_critical``
+and the diagnostics status ``<name>/battery_state_pub: Battery``. One timer
+steps every battery, one spreads the ``battery_status`` publications over
+their period (a burst of hundreds of reliable messages would delay the last
+by seconds), and ``/battery_fleet/states`` (BatteryFleetState) carries the
+whole fleet at ``fleet_rate`` Hz.
+
+:Parameters of battery_fleet (read-only):
+  - ``robots`` (int, or str): a count N (names ``<prefix><first + k>``) or the path of a YAML file
+    holding a list of ``{name, config, initial_percentage, charging}`` (ROS 2 parameters hold no
+    list of maps)
+  - ``prefix`` (str, default robot), ``first`` (int >= 0, default 0)
+  - ``fleet_rate`` (float, Hz, 0 < r <= 100, default 1)
+  - ``state_file`` (str): one JSON file every robot's state is saved to and resumed from
+  - ``config``, ``time_scale``, ``update_rate``, ``initial_percentage`` (unset with a count: staggered
+    100, 95, ... 20), ``charging``, and battery_state_pub's ``rate``, ``frame_id``, ``stale_timeout``,
+    ``low_percentage``, ``critical_percentage``, ``hysteresis``: for every robot that does not set its own
+"""
+import time
+
+import rclpy
+import yaml
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+from battery_simulator.core.fleet import FleetError, robot_specs
+from battery_simulator.core.parameters import is_number
+from battery_simulator.core.state_file import FleetStateFile
+from battery_simulator.msg import BatteryFleetState
+from battery_simulator.ros2.battery_front import BatteryFront
+from battery_simulator.ros2.battery_node import (STARTUP_SETTINGS, TIME_SCALE, declare_live, declare_mode, load_config,
+                                                 make_battery, publish_diagnostics, read_publisher_settings,
+                                                 steady_clock)
+from battery_simulator.ros2.node_log import NodeLog
+from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
+                                            parameter_name, spin)
+from battery_simulator.ros2.status_front import StatusFront
+
+FLEET_STATES = '/battery_fleet/states'
+PUBLISH_TICK_S = 0.05        # the spread battery_status publications: a slice of the fleet every tick
+DISCOVERY_S = 1.0            # how long to look for another process serving one of our robots
+
+
+def _any(description):
+    return ParameterDescriptor(description=description, read_only=True, dynamic_typing=True)
+
+
+class FleetSettings:
+    """The host's parameters, checked: one fatal line for a bad one."""
+
+    def __init__(self, node):
+        declared = {name: node.declare_parameter(name, default, _any(text)).value for name, default, text in (
+            ('robots', 1, 'a count N, or the path of a YAML list of {name, config, initial_percentage, charging}'),
+            ('prefix', 'robot', 'with a count: names <prefix><first + k>'),
+            ('first', 0, 'with a count: the first robot number'),
+            ('fleet_rate', 1.0, '/battery_fleet/states per second'))}
+        self.battery = declare_settings(node, STARTUP_SETTINGS + (TIME_SCALE,))
+        self.charging = declare_mode(node)
+        self.publisher = read_publisher_settings(node)
+        staggered = not _given(node, 'initial_percentage')
+        if not (is_number(declared['fleet_rate']) and 0 < declared['fleet_rate'] <= 100):
+            raise StartupError('parameter %s = %r is invalid: must be a number in (0, 100] Hz'
+                               % (parameter_name(node, 'fleet_rate'), declared['fleet_rate']))
+        first = declared['first']
+        if not (isinstance(first, int) and not isinstance(first, bool) and first >= 0):
+            raise StartupError('parameter %s = %r is invalid: must be a whole number >= 0'
+                               % (parameter_name(node, 'first'), first))
+        robots = declared['robots']
+        if isinstance(robots, str):
+            try:
+                with open(robots, encoding='utf-8') as stream:
+                    robots = yaml.safe_load(stream)
+            except (OSError, yaml.YAMLError) as error:
+                raise StartupError('parameter %s = %r is invalid: cannot read it as a YAML list of robots (%s)'
+                                   % (parameter_name(node, 'robots'), declared['robots'], error)) from None
+        try:
+            self.robots = robot_specs(robots, prefix=declared['prefix'] if isinstance(declared['prefix'], str)
+                                      else '', first=first, config=self.battery['config'],
+                                      initial_percentage=None if staggered else self.battery['initial_percentage'],
+                                      charging=self.charging)
+        except FleetError as error:
+            raise StartupError('%s: %s' % (node.get_fully_qualified_name(), str(error).replace('~', ''))) from None
+        self.fleet_rate = declared['fleet_rate']
+        self.configs = {}
+        for robot in self.robots:
+            if robot.config not in self.configs:
+                try:
+                    self.configs[robot.config] = load_config(node, robot.config)
+                except StartupError as error:
+                    raise StartupError('robot %s: %s' % (robot.name, error)) from None
+
+
+def _given(node, name):
+    """Whether ``name`` was given on the command line (a parameter override), not defaulted."""
+    return name in node._parameter_overrides   # rclpy keeps no public view of the overrides
+
+
+class Robot:
+    """One robot of the fleet: its node, battery and fronts."""
+
+    def __init__(self, spec, settings, params, store, executor):
+        self.name = spec.name
+        self.node = Node('battery_simulator', namespace='/' + spec.name)
+        executor.add_node(self.node)
+        self.log = NodeLog(self.node.get_logger())
+        charging = declare_mode(self.node, spec.charging)
+        battery_settings = dict(settings.battery, initial_percentage=spec.initial_percentage)
+        self.battery = make_battery(self.node, battery_settings, params, charging, self.log)
+        declare_live(self.node, self.battery)
+        self.store = store.robot(spec.name)
+        saved = self.store.load()
+        self.resumed = False
+        if saved is not None:
+            try:
+                self.battery.resume(saved)
+                self.resumed = True
+            except ValueError as error:
+                self.log.warn('not resuming: %s; starting at %.1f %%', error, spec.initial_percentage)
+        self.status = StatusFront(self.node, '', spec.name + '/battery_state_pub', log=self.log, **settings.publisher)
+        self.front = BatteryFront(self.node, self.battery, '', self.log, self.status, self.store)
+        self.node.add_on_set_parameters_callback(self.front.on_set_parameters)
+
+
+class FleetHost:
+    """Every robot, and the few timers they share (on the host node)."""
+
+    def __init__(self, node, settings, executor):
+        self._node = node
+        self._store = FleetStateFile(settings.battery['state_file'], NodeLog(node.get_logger()).warn) \
+            if settings.battery['state_file'] else _NoStore()
+        self.robots = [Robot(spec, settings, settings.configs[spec.config], self._store, executor)
+                       for spec in settings.robots]
+        for robot in self.robots:
+            robot.front.update()
+        self._period_s = 1.0 / settings.publisher['rate']
+        start = time.monotonic()
+        count = len(self.robots)
+        self._due = [start + self._period_s * k / count for k in range(count)]   # spread over one period
+        node.create_timer(1.0 / settings.battery['update_rate'], self._update, clock=steady_clock())
+        node.create_timer(min(PUBLISH_TICK_S, self._period_s), self._publish_due, clock=steady_clock())
+        self._states_pub = node.create_publisher(BatteryFleetState, FLEET_STATES, 10)
+        node.create_timer(1.0 / settings.fleet_rate, self._publish_states, clock=steady_clock())
+        publish_diagnostics(node, [robot.status for robot in self.robots])
+
+    def _update(self):
+        for robot in self.robots:
+            robot.front.update()
+        self._store.write_if_due()
+
+    def _publish_due(self):
+        now = time.monotonic()
+        for index, robot in enumerate(self.robots):
+            if now >= self._due[index]:
+                robot.status.publish_once()
+                self._due[index] = max(self._due[index] + self._period_s, now)
+
+    def _publish_states(self):
+        if self._states_pub.get_subscription_count() == 0:
+            return
+        msg = BatteryFleetState()
+        msg.header.stamp = self._node.get_clock().now().to_msg()
+        for robot in self.robots:
+            battery = robot.status.latest_battery()
+            if battery is not None:
+                msg.names.append(robot.name)
+                msg.states.append(battery)
+        self._states_pub.publish(msg)
+
+    def finish(self):
+        for robot in self.robots:
+            robot.front.finish()
+        self._store.write_if_due(force=True)
+
+
+class _NoStore:
+    def robot(self, name):
+        return self
+
+    def load(self):
+        return None
+
+    def maybe_save(self, state):
+        pass
+
+    save_now = maybe_save
+
+    def write_if_due(self, force=False):
+        pass
+
+
+def served_elsewhere(node, executor, names):
+    """{robot name: its battery node} for robots another process already serves (looked up for DISCOVERY_S)."""
+    deadline = time.monotonic() + DISCOVERY_S
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.1)
+    wanted = {'/' + name: name for name in names}
+    return {wanted[ns]: '%s/%s' % (ns, name) for name, ns in node.get_node_names_and_namespaces()
+            if name == 'battery_simulator' and ns in wanted}
+
+
+def main(args=None):
+    with ending_quietly():
+        rclpy.init(args=args)
+        node = Node('battery_fleet')
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        host = None
+        try:
+            settings = FleetSettings(node)
+            taken = served_elsewhere(node, executor, [robot.name for robot in settings.robots])
+            if taken:
+                name = sorted(taken)[0]
+                raise StartupError('robot %s is already served by %s (another process): exactly one battery per '
+                                   'robot name; %d of our robots are taken' % (name, taken[name], len(taken)))
+            host = FleetHost(node, settings, executor)
+        except StartupError as error:
+            exit_on_startup_error(error, node.get_logger())
+        node.get_logger().info('battery_fleet ready: %d robots (%s ... %s), update %g Hz, battery_status %g Hz' % (
+            len(host.robots), host.robots[0].name, host.robots[-1].name, settings.battery['update_rate'],
+            settings.publisher['rate']))
+        try:
+            spin(executor)
+        finally:
+            host.finish()

@@ -1,0 +1,85 @@
+"""``battery_state_pub`` (ROS 2): the tutorial's node.
+
+    ros2 run battery_simulator battery_state_pub
+
+With a ``battery_simulator`` node in its namespace (found within ``wait_s``,
+default 3 s) it publishes that battery's state, as on ROS 1. Alone, it runs
+its own battery with the same settings as ``battery_sim`` (they are declared
+on this node), so the tutorial's one command gives a physical battery:
+``battery_status``, ``battery_low``, ``battery_critical``, ``/diagnostics``,
+and the battery's action and services under the usual names.
+
+:Parameters: ``wait_s`` (float >= 0, read-only; default 3), battery_sim's
+  battery_state_pub parameters, and (used when alone) battery_sim's
+  battery_simulator parameters.
+"""
+import time
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+from battery_simulator.core.parameters import is_number
+from battery_simulator.msg import BatterySimState
+from battery_simulator.ros import topics
+from battery_simulator.ros2.battery_node import OneBattery, publish_diagnostics, read_publisher_settings, steady_clock
+from battery_simulator.ros2.node_log import NodeLog
+from battery_simulator.ros2.startup import (StartupError, ending_quietly, exit_on_startup_error, parameter_name,
+                                            spin)
+from battery_simulator.ros2.status_front import STATUS_QOS, ReceivedState, StatusFront
+
+BATTERY_NODE = 'battery_simulator'
+
+
+def battery_node_present(node):
+    """Whether a node named battery_simulator runs in this node's namespace."""
+    namespace = node.get_namespace()
+    return any(name == BATTERY_NODE and ns == namespace for name, ns in node.get_node_names_and_namespaces())
+
+
+def wait_for_battery_node(node, executor, wait_s):
+    deadline = time.monotonic() + wait_s
+    while time.monotonic() < deadline:
+        if battery_node_present(node):
+            return True
+        executor.spin_once(timeout_sec=0.1)
+    return battery_node_present(node)
+
+
+def main(args=None):
+    with ending_quietly():
+        rclpy.init(args=args)
+        node = Node('battery_state_pub')
+        wait_s = node.declare_parameter('wait_s', 3.0, ParameterDescriptor(
+            description='how long to look for a battery_simulator node in this namespace before running '
+                        'a battery of its own, s', read_only=True, dynamic_typing=True)).value
+        if not (is_number(wait_s) and wait_s >= 0):
+            exit_on_startup_error(StartupError('parameter %s = %r is invalid: must be a number >= 0 s'
+                                               % (parameter_name(node, 'wait_s'), wait_s)), node.get_logger())
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        log = NodeLog(node.get_logger())
+        one = None
+        try:
+            if wait_for_battery_node(node, executor, wait_s):
+                publisher = read_publisher_settings(node)
+                status = StatusFront(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **publisher)
+                node.create_subscription(BatterySimState, topics.STATE_TOPIC,
+                                         lambda msg: status.on_state(ReceivedState(msg), msg.publish_now),
+                                         STATUS_QOS)
+                node.create_timer(1.0 / publisher['rate'], status.publish_once, clock=steady_clock())
+                publish_diagnostics(node, [status])
+                log.info('battery_state_pub: following %s', node.resolve_topic_name(topics.STATE_TOPIC))
+            else:
+                one = OneBattery(node, node)
+                log.info('battery_state_pub: no %s node in %s after %g s: running a battery of its own',
+                         BATTERY_NODE, node.get_namespace(), wait_s)
+                one.report_ready()
+        except StartupError as error:
+            exit_on_startup_error(error, node.get_logger())
+        try:
+            spin(executor)
+        finally:
+            if one is not None:
+                one.front.finish()
