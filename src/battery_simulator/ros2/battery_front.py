@@ -2,10 +2,14 @@
 inputs, the ``charging`` parameter and the live settings, around one core Battery.
 
 Everything runs in the executor's one thread: ``update()`` is called by a
-timer (wall time, ``update_rate`` Hz) and steps the battery; the action's
-execute callback is a coroutine that awaits its goal's end, which an update
-(or a new goal, or a cancel) sets. A service's change is stepped and handed
-to the status front before the reply, so the next ``battery_status`` shows it.
+timer (wall time, ``update_rate`` Hz) and steps the battery. A goal is
+accepted and followed by the updates (feedback at each); it is executed only
+once its end is known (Full, Empty, preempted by a new goal, cancelled,
+aborted), by a callback that sets that end and returns the result at once. So
+no callback blocks and no coroutine waits: rclpy's executor re-runs a waiting
+coroutine at every turn, which would spin a core while a goal runs. The goal
+shows ACCEPTED while it runs. A service's change is stepped and handed to the
+status front before the reply, so the next ``battery_status`` shows it.
 """
 import math
 
@@ -14,7 +18,6 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.task import Future
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
@@ -37,8 +40,6 @@ STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Rel
 class _ActiveGoal:
     def __init__(self, handle, goal):
         self.handle, self.goal = handle, goal
-        self.end = Future()       # its GoalEnd, set by an update, a new goal, a cancel or shutdown
-        self.fed_at = -math.inf
 
 
 class BatteryFront:
@@ -54,7 +55,7 @@ class BatteryFront:
         self._setting_mode = False
         ns = namespace
         self._state_pub = node.create_publisher(BatterySimState, ns + topics.STATE_TOPIC, STATE_QOS)
-        self._action = ActionServer(node, BatterySim, ns + topics.ACTION, execute_callback=self._execute,
+        self._action = ActionServer(node, BatterySim, ns + topics.ACTION, execute_callback=self._not_followed,
                                     goal_callback=lambda goal: GoalResponse.ACCEPT,
                                     handle_accepted_callback=self._accepted,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT)
@@ -119,7 +120,7 @@ class BatteryFront:
     # -- the action ------------------------------------------------------------------------------
 
     def _accepted(self, handle):
-        """A new goal preempts the active one (SimpleActionServer's rule), then runs."""
+        """A new goal preempts the active one (SimpleActionServer's rule); the updates follow it."""
         if self._active is not None:
             self._end_goal(self.battery.preempted('a new goal'))
         goal = Goal(handle.request.charge_state)
@@ -128,23 +129,27 @@ class BatteryFront:
         self._write_mode(goal.mode)
         snapshot = self.battery.snapshot_now()
         self._log.info_throttle(LOG_PERIOD_S, 'goal: %s from %.1f %%', goal.mode.value, snapshot.percentage)
-        handle.execute()
         self.update(publish_now=True)   # a goal that starts where it would end succeeds at once
 
-    async def _execute(self, handle):
-        active = self._active if self._active is not None and self._active.handle is handle else None
-        if active is None:   # preempted before it ran
-            handle.abort()
-            return BatterySim.Result(battery_status='Preempted before it started')
-        end = await active.end
+    def _end_goal(self, end):
+        """End the active goal: execute it now with a callback that sets ``end`` and returns its result."""
+        active, self._active = self._active, None
+        active.handle.execute(lambda handle: self._conclude(handle, end))
+
+    def _conclude(self, handle, end):
         if end.outcome == GoalEnd.SUCCEEDED:
             handle.succeed()
-        elif end.outcome == GoalEnd.PREEMPTED and handle.is_cancel_requested:
+        elif handle.is_cancel_requested:
             handle.canceled()
         else:
             handle.abort()
         self._log.info_throttle(LOG_PERIOD_S, 'goal ended: %s', end.text)
         return BatterySim.Result(battery_status=end.text)
+
+    def _not_followed(self, handle):
+        """The ActionServer's default execute callback: never called for a goal this front follows."""
+        handle.abort()
+        return BatterySim.Result(battery_status='Aborted: the goal was not followed')
 
     def _check_goal(self, snapshot):
         active = self._active
@@ -157,11 +162,6 @@ class BatteryFront:
         end = self.battery.goal_end(active.goal, snapshot)
         if end is not None:
             self._end_goal(end)
-
-    def _end_goal(self, end):
-        active, self._active = self._active, None
-        if not active.end.done():
-            active.end.set_result(end)
 
     # -- inputs ----------------------------------------------------------------------------------
 
