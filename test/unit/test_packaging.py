@@ -29,10 +29,18 @@ def test_action_file_is_the_original():
                             'float32', 'battery_percentage']
 
 
-def package_dependencies():
+def package_dependencies(ros_version=None):
+    """The dependency keys of package.xml: all, or those that apply when $ROS_VERSION is 1 or 2."""
     root = ElementTree.parse(ROOT / 'package.xml').getroot()
     assert root.get('format') == '3'
-    return {element.text.strip() for tag in DEPENDENCY_TAGS for element in root.findall(tag)}
+    keys = set()
+    for tag in DEPENDENCY_TAGS:
+        for element in root.findall(tag):
+            condition = element.get('condition')
+            assert condition in (None, '$ROS_VERSION == 1', '$ROS_VERSION == 2'), condition
+            if ros_version is None or condition in (None, '$ROS_VERSION == %d' % ros_version):
+                keys.add(element.text.strip())
+    return keys
 
 
 def install_lines():
@@ -44,15 +52,48 @@ def install_lines():
     return lines
 
 
-def test_every_package_xml_dependency_has_an_install_line():
+def test_every_ros1_dependency_has_an_install_line():
     lines = install_lines()
-    missing = sorted(d for d in package_dependencies() if not lines.get(d))
+    missing = sorted(d for d in package_dependencies(1) if not lines.get(d))
     assert not missing, 'no line in debian-dependencies.txt for %s' % missing
+
+
+def test_every_ros2_dependency_comes_with_the_ros2_wheels():
+    """tools/ros2.sh installs ROS 2 from PyPI: each ROS 2 key has its wheel (ros-kilted-<key>)."""
+    wheels = {line.split('==')[0].strip().lower() for line in
+              (ROOT / 'tools' / 'ros2' / 'requirements.txt').read_text().splitlines()
+              if line.strip() and not line.startswith('#')}
+    python_keys = {'python3-yaml': 'pyyaml', 'python3-matplotlib': 'matplotlib', 'python3-pytest': 'pytest'}
+    missing = []
+    for key in sorted(package_dependencies(2)):
+        wheel = python_keys.get(key, 'ros-kilted-' + key.replace('_', '-'))
+        if key != 'python3-hypothesis' and wheel not in wheels:
+            missing.append('%s (%s)' % (key, wheel))
+    assert not missing, 'not in tools/ros2/requirements.txt: %s' % missing
+
+
+def test_every_key_resolves_with_rosdep():
+    """Noetic on Ubuntu 20.04 for the ROS 1 keys, Jazzy for the ROS 2 keys (test/data/rosdep_keys.yaml)."""
+    import yaml
+    known = yaml.safe_load((ROOT / 'test' / 'data' / 'rosdep_keys.yaml').read_text())
+    for ros_version, distro in ((1, 'noetic'), (2, 'jazzy')):
+        unknown = sorted(key for key in package_dependencies(ros_version)
+                         if key not in known['system'] and key not in known[distro])
+        assert not unknown, 'not rosdep keys for %s: %s' % (distro, unknown)
+
+
+def test_the_two_build_types_are_conditioned():
+    root = ElementTree.parse(ROOT / 'package.xml').getroot()
+    types = {(e.text.strip(), e.get('condition')) for e in root.find('export').findall('build_type')}
+    assert types == {('catkin', '$ROS_VERSION == 1'), ('ament_cmake', '$ROS_VERSION == 2')}, types
+    assert 'rclpy_action' not in package_dependencies(), 'the action API is part of rclpy'
 
 
 def test_required_dependencies_are_declared():
     assert {'rospy', 'actionlib', 'actionlib_msgs', 'std_msgs', 'sensor_msgs', 'message_generation',
-            'message_runtime', 'rostest', 'catkin'} <= package_dependencies()
+            'message_runtime', 'rostest', 'catkin'} <= package_dependencies(1)
+    assert {'rclpy', 'ament_cmake', 'rosidl_default_generators', 'rosidl_default_runtime', 'action_msgs',
+            'sensor_msgs', 'std_msgs'} <= package_dependencies(2)
 
 
 def test_install_script_reads_the_list():

@@ -44,3 +44,7 @@ def main(args=None):
             spin(executor)
         finally:
             one.front.finish()
+
+
+if __name__ == "__main__":
+    main()

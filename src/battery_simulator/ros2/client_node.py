@@ -99,3 +99,7 @@ def _cancel(node, goal_handle):
     deadline = time.monotonic() + 5.0
     while not cancelled.done() and time.monotonic() < deadline:
         rclpy.spin_once(node, timeout_sec=STEP_S)
+
+
+if __name__ == "__main__":
+    main()

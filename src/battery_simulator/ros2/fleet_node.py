@@ -231,3 +231,7 @@ def main(args=None):
             spin(executor)
         finally:
             host.finish()
+
+
+if __name__ == "__main__":
+    main()

@@ -83,3 +83,7 @@ def main(args=None):
         finally:
             if one is not None:
                 one.front.finish()
+
+
+if __name__ == "__main__":
+    main()
