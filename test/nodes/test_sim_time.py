@@ -12,10 +12,10 @@ import unittest
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatusArray
-from rosgraph_msgs.msg import Clock
+from rosgraph_msgs.msg import Clock, Log
 from sensor_msgs.msg import BatteryState
 
-from rostest_helpers import Recorder
+from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 SIM_STEP_S = 0.2       # simulated seconds per /clock tick
 TICK_WALL_S = 0.01     # wall seconds between ticks: sim time runs at about 20x
@@ -83,6 +83,36 @@ class TestSimTime(unittest.TestCase):
         self.assertLess(further.percentage, after.percentage, 'the model runs on after the jump')
         self.action_status.wait_until(lambda m: m.header.stamp.to_sec() > further.header.stamp.to_sec(), 10.0,
                                       'the action status still flowing after the jump')
+
+    def test_4_a_second_clock_interleaving_its_times_drains_nothing(self):
+        """A second /clock publisher (sim_clock beside a simulator) interleaves hours-apart times: every
+        jump either way restarts the time base (forward ones beyond ~max_time_jump), with a warning
+        naming both publishers; the battery drains no more than the honest clock's time."""
+        log = Recorder('/rosout', Log)
+        before = self.status.wait_until(lambda m: True, 10.0, 'battery_status before the intruder')
+        started = time.monotonic()
+        intruder = subprocess.Popen(node_command('sim_clock.py') + ['__name:=intruding_clock', '_start:=50000',
+                                                                    '_speed:=10', '_tick_hz:=100'],
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            def warnings():
+                return [m.msg for m in log.since(0) if 'time base restarted' in m.msg and
+                        '/clock has 2 publishers' in m.msg]
+            wait_for(lambda: warnings(), 30.0, 'a warning naming both /clock publishers')
+            warning = warnings()[0]
+            self.assertIn('/intruding_clock', warning)
+            self.assertIn(rospy.get_name(), warning)
+            self.status.wait_until(lambda m: True, 10.0, 'battery_status while two clocks run')
+        finally:
+            stop_process(intruder)
+        after = self.status.wait_until(lambda m: m.header.stamp.to_sec() < 1e4, 30.0,
+                                       'battery_status on the honest clock again')
+        honest_s = (time.monotonic() - started) * SIM_STEP_S / TICK_WALL_S   # at most this much honest time
+        used_ah = (before.percentage - after.percentage) * before.capacity
+        self.assertLess(used_ah, LOAD_A * honest_s / 3600.0 * 1.5 + 1e-3,
+                        'the jumps drained the battery: %.1f %% -> %.1f %%' % (100 * before.percentage,
+                                                                               100 * after.percentage))
+        self.assertGreaterEqual(used_ah, -1e-4, 'the jumps charged the battery')
 
     def test_3_client_timeouts_are_wall_seconds(self):
         started = time.monotonic()

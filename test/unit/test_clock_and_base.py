@@ -81,3 +81,19 @@ def test_undocking_ends_although_each_step_drives_half_the_way_left(step_s):
         pose, _ = fake_base.advance(pose, (twist.linear.x, twist.angular.z, 0.0), 0.0, step_s, 100.0)
     assert entered == [patrol.PATROL]
     assert 0.6 - patrol.ARRIVED_M <= math.hypot(*pose[:2]) <= 0.6
+
+
+def test_a_forward_jump_beyond_the_bound_restarts_the_time_base():
+    base = TimeBase(1.0, zero_is_unset=True, max_jump_s=3600.0)
+    assert base.elapsed(1000.0) == 0.0                       # a start
+    assert base.elapsed(1100.0) == 100.0                     # an honest step (speed 1000, 10 Hz)
+    assert base.elapsed(49000.0) == 0.0 and base.jumps_forward == 1   # a second clock: drains nothing
+    assert base.elapsed(1100.1) == 0.0 and base.jumps_back == 1       # and back: nothing either
+    assert base.pending(60000.0) == 0.0, 'a prediction does not count a jump either'
+    assert base.elapsed(1103.1) == 3.0 and base.restarts == 2
+
+
+def test_no_bound_without_one():
+    base = TimeBase(1.0)
+    base.elapsed(0.5)
+    assert base.elapsed(1e6) == 1e6 - 0.5 and base.restarts == 0

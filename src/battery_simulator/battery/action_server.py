@@ -60,8 +60,8 @@ from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.battery.workers import StatusTimer, UpdateLoop
 from battery_simulator.cfg import BatterySimConfig
-from battery_simulator.core.battery import (LIVE_PARAMETERS, UNREADABLE, Battery, BatteryError, Goal, GoalEnd,
-                                            noisy_current, noisy_voltage)
+from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery, BatteryError, Goal,
+                                            GoalEnd, noisy_current, noisy_voltage)
 from battery_simulator.core.battery_model import Mode
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
@@ -69,14 +69,15 @@ from battery_simulator.core.settings import BATTERY_SETTINGS
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros import topics
 from battery_simulator.ros.cached_param import CachedParam
-from battery_simulator.ros.startup import (StartupError, init_node, read_private_settings, signals_held,
-                                           wait_for_rosout)
+from battery_simulator.ros.startup import (StartupError, clock_publishers, init_node, read_private_settings,
+                                           signals_held, wait_for_rosout)
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, PredictResponse, SetLoad,
                                    SetLoadResponse, SetState, SetStateResponse)
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
+JUMP_LOG_PERIOD_S = 10.0       # a clock that jumps back and forth (two /clock publishers) warns this often
 __all__ = ['BatterySimServer', 'read_settings', 'main', 'noisy_current', 'noisy_voltage']
 
 
@@ -106,7 +107,7 @@ class BatterySimServer:
     """
 
     def __init__(self, namespace, node_name, params, time_scale, initial_percentage, charging, store, loop,
-                 status_timer, log=None):
+                 status_timer, log=None, max_time_jump=DEFAULT_MAX_TIME_JUMP_S):
         """One battery whose names live under ``namespace`` ('/', '/robot3/'); ``node_name`` is where its
         dynamic_reconfigure lives (its node, or '/robot3/BatterySimServer' in a fleet host); ``store``
         keeps its saved state; ``loop`` (UpdateLoop) steps it; ``status_timer`` publishes its goal status."""
@@ -117,7 +118,8 @@ class BatterySimServer:
         self._mode_param = CachedParam(namespace + topics.MODE_PARAM)
         self.battery = Battery(params, initial_percentage, charging,
                                clock=rospy.get_time if sim_time else time.monotonic, sim_time=sim_time,
-                               time_scale=time_scale, mode_name=self._mode_param.name, log=self._log)
+                               time_scale=time_scale, mode_name=self._mode_param.name, log=self._log,
+                               max_time_jump=max_time_jump)
         self._lock = self.battery.lock
         self._loop = loop
         self._status_timer = status_timer
@@ -268,8 +270,9 @@ class BatterySimServer:
             update = self.battery.update(mode_value, generation)
             self._updates += 1
             number, urgent = self._updates, self._updates == self._urgent_update
-        if update.time_restarted:
-            self._log.warn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', update.now)
+        if update.time_jump is not None:
+            self._log.warn_throttle(JUMP_LOG_PERIOD_S, '%s', update.time_jump_warning(
+                self.battery.max_time_jump, clock_publishers()))
         self._publish_state(update.record, publish_now=urgent, update=number)
         with self._lock:
             self._published_update = number

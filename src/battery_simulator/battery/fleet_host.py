@@ -106,7 +106,8 @@ class FleetHost:
             log = RobotLog(robot.name + ': ', progress=False)
             battery = BatterySimServer(
                 namespace, namespace + 'BatterySimServer', configs[robot.config], server['time_scale'],
-                robot.initial_percentage, robot.charging, self.store.robot(robot.name), self.loop, status_timer, log)
+                robot.initial_percentage, robot.charging, self.store.robot(robot.name), self.loop, status_timer, log,
+                server['max_time_jump'])
             status = BatteryStatePublisher(namespace, namespace + 'battery_state_pub', changes=self.changes,
                                            log=log, **publisher)
             battery.add_state_listener(status.on_state)

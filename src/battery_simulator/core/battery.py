@@ -31,6 +31,11 @@ from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, Pa
                                                load_power_error)
 from battery_simulator.core.time_base import TimeBase
 
+#: under sim time, the largest forward step of ROS time between two updates that counts as elapsed, s.
+#: The fastest honest clock here is sim_clock at speed 1000 (demo.launch documents up to 960): 100 s
+#: between two 10 Hz updates, 1000 s if the process stalls for a second; a second /clock publisher
+#: interleaving its times jumps by hours (48,000 s measured). One hour leaves a 3.6 s stall at speed 1000.
+DEFAULT_MAX_TIME_JUMP_S = 3600.0
 OVERHEAT_MARGIN_K = 2.0   # the overheat fault holds the pack this far above its overheat limit
 INVALID_LOG_PERIOD_S = 10.0
 #: the live (dynamic_reconfigure / ros2 param) keys that are battery parameters (time_scale is the battery's own)
@@ -144,23 +149,39 @@ class BatteryRecord:
 
 
 class Update:
-    """What one ``Battery.update()`` did: the record to publish, the state to save, whether time restarted."""
+    """What one ``Battery.update()`` did: the record to publish, the state to save, and ``time_jump``:
+    None, or 'backwards' / 'forwards' when the clock jumped and the time base restarted."""
 
-    def __init__(self, record, saved_state, now, time_restarted):
+    def __init__(self, record, saved_state, now, time_jump=None):
         self.record = record
         self.snapshot = record.snapshot
         self.saved_state = saved_state
         self.now = now
-        self.time_restarted = time_restarted
+        self.time_jump = time_jump
+
+    def time_jump_warning(self, max_jump_s, clock_publishers=()):
+        """The line a front end logs (throttled) after a jump: what happened, and who publishes /clock
+        when more than one node does (the usual cause of jumps back and forth)."""
+        if self.time_jump == 'backwards':
+            text = 'ROS time moved backwards (to %.3f s): time base restarted, nothing drained' % self.now
+        else:
+            text = ('ROS time jumped forwards by more than max_time_jump (%g s) to %.3f s: time base restarted, '
+                    'nothing drained' % (max_jump_s, self.now))
+        if len(clock_publishers) > 1:
+            text += '; /clock has %d publishers: %s (one clock only)' % (len(clock_publishers),
+                                                                        ', '.join(sorted(clock_publishers)))
+        return text
 
 
 class Battery:
     """One battery: the model, its loads, mode, goals, controls and faults (see the module's docstring)."""
 
     def __init__(self, params, initial_percentage=100.0, charging=False, clock=time.monotonic, sim_time=False,
-                 time_scale=1.0, mode_name='MyRobot/BatteryStatus', log=None, noise_seed=None):
+                 time_scale=1.0, mode_name='MyRobot/BatteryStatus', log=None, noise_seed=None,
+                 max_time_jump=DEFAULT_MAX_TIME_JUMP_S):
         """``clock()``: the front end's time; ``sim_time``: it is a simulator's clock (0 = not started,
-        ``time_scale`` ignored); ``mode_name``: what the front end calls the mode (in abort texts)."""
+        ``time_scale`` ignored; a forward jump of more than ``max_time_jump`` s between two updates
+        restarts the time base); ``mode_name``: what the front end calls the mode (in abort texts)."""
         self.lock = threading.Condition()
         self.mode_name = mode_name
         self.sim_time = sim_time
@@ -168,7 +189,9 @@ class Battery:
         self._log = log or _SilentLog()
         self._initial_soc = initial_percentage / 100.0
         self.time_scale = time_scale    # as configured (the time base ignores it under sim time)
-        self._time_base = TimeBase(1.0, zero_is_unset=True) if sim_time else TimeBase(time_scale)
+        self.max_time_jump = max_time_jump
+        self._time_base = TimeBase(1.0, zero_is_unset=True, max_jump_s=max_time_jump) if sim_time \
+            else TimeBase(time_scale)
         self.mode_generation = 0        # bumped whenever the mode is set other than by the mode value
         self._mode_source = 'parameter'  # who set the mode last (for abort texts)
         self._contact = False           # the charger contact as last reported
@@ -212,7 +235,7 @@ class Battery:
         when the mode was set since ``generation``), apply faults, step to now; an Update."""
         with self.lock:   # the clock is read under the lock: a service may step the model to its own now
             now = self._clock()
-            restarts = self._time_base.restarts
+            back, forward = self._time_base.jumps_back, self._time_base.jumps_forward
             if mode_value is not UNREADABLE and generation in (None, self.mode_generation):
                 self.follow_mode_value(mode_value)
             if 'overheat' in self._faults:
@@ -221,7 +244,9 @@ class Battery:
             motion_w = self._step_to(now)
             record = BatteryRecord(self.model.snapshot(), self.params, motion_w + sum(self._payloads.values()),
                                    self._faults, self._noise)
-            return Update(record, self.model.export_state(), now, self._time_base.restarts != restarts)
+            jump = 'backwards' if self._time_base.jumps_back != back else \
+                'forwards' if self._time_base.jumps_forward != forward else None
+            return Update(record, self.model.export_state(), now, jump)
 
     def record(self):
         """The state now (without stepping), as a record."""

@@ -38,6 +38,9 @@ BATTERY_SETTINGS = (
             'initial mode: true charges, false discharges', False),
     Setting('state_file', '', lambda v: isinstance(v, str), 'a file path (or empty)',
             'JSON file the state is saved to and resumed from (empty: none)', False),
+    Setting('max_time_jump', 3600.0, lambda v: is_number(v) and v > 0, 'a number > 0 s',
+            'under use_sim_time: a forward jump of ROS time larger than this between two updates restarts '
+            'the time base (nothing drained)', False),
 )
 #: battery_state_pub's settings
 PUBLISHER_SETTINGS = (

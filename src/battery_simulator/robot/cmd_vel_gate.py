@@ -63,6 +63,6 @@ class CmdVelGate:
 
 
 def main():
-    rospy.init_node('battery_cmd_vel_gate')
+    rospy.init_node('battery_cmd_vel_gate', disable_signals=True)   # node_signals.py's handlers (robot/__init__)
     CmdVelGate()
     rospy.spin()

@@ -5,9 +5,11 @@ import signal
 import sys
 import time
 
+import rosgraph
 import rospy
 
 from battery_simulator.core.parameters import is_number, number_from_text
+from battery_simulator.node_signals import end_nodes_on_signals
 
 FATAL_FLUSH_S = 0.3   # how long a dying node gives its last line to reach /rosout
 
@@ -36,6 +38,24 @@ def read_private_settings(settings):
             for setting in settings}
 
 
+_clock_publishers = (-float('inf'), [])   # (monotonic time, names) of the last lookup
+
+
+def clock_publishers(period_s=10.0):
+    """The nodes that publish /clock (looked up at the master at most every ``period_s``, on demand:
+    after a clock jump, never at every update)."""
+    global _clock_publishers
+    looked_up_at, names = _clock_publishers
+    if time.monotonic() - looked_up_at >= period_s:
+        try:
+            publishers, _, _ = rosgraph.Master(rospy.get_name()).getSystemState()
+            names = next((nodes for topic, nodes in publishers if topic == '/clock'), [])
+        except (OSError, rosgraph.MasterException):
+            names = []
+        _clock_publishers = (time.monotonic(), names)
+    return names
+
+
 def wait_for_rosout(timeout_s=2.0):
     """Wait (bounded, wall time) until /rosout listens, so that start-up lines reach rqt_console and tests.
 
@@ -53,24 +73,17 @@ def wait_for_rosout(timeout_s=2.0):
 
 @contextlib.contextmanager
 def signals_held():
-    """Hold SIGINT and SIGTERM while a node starts; deliver them once it is up.
-
-    rospy's handler makes XML-RPC calls to the master; run while the main
-    thread is inside one (start-up is full of them) it waits on the lock that
-    thread holds, and the node hangs for ever. Threads started meanwhile
-    inherit the mask, so a held signal reaches the main thread at a safe point.
-    """
-    held = {signal.SIGINT, signal.SIGTERM}
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+    """Around a node's start-up: SIGINT and SIGTERM end it at any moment (node_signals.py: rospy keeps
+    out of signal handling, since its handler would call the master from inside the signal)."""
+    end_nodes_on_signals()
+    yield
 
 
 def init_node(name, read_settings):
-    """rospy.init_node(name), then read_settings(): its settings, or one fatal line and exit 1."""
-    rospy.init_node(name)
+    """rospy.init_node(name), then read_settings(): its settings, or one fatal line and exit 1.
+    SIGINT and SIGTERM are node_signals.py's (rospy's handler can hang a node that is starting)."""
+    end_nodes_on_signals()
+    rospy.init_node(name, disable_signals=True)
     try:
         return read_settings()
     except StartupError as error:

@@ -33,6 +33,7 @@ from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
 MODE_PARAMETER = 'charging'
 FEEDBACK_PERIOD_S = 1.0
 LOG_PERIOD_S = 1.0
+JUMP_LOG_PERIOD_S = 10.0   # a clock that jumps back and forth (two /clock publishers) warns this often
 STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -99,8 +100,10 @@ class BatteryFront:
     def update(self, publish_now=False):
         """Step the battery to now, publish its state, feed and end the active goal."""
         update = self.battery.update()
-        if update.time_restarted:
-            self._log.warn('ROS time moved backwards (to %.3f s): time base restarted, nothing drained', update.now)
+        if update.time_jump is not None:
+            publishers = [info.node_name for info in self.node.get_publishers_info_by_topic('/clock')]
+            self._log.warn_throttle(JUMP_LOG_PERIOD_S, '%s', update.time_jump_warning(
+                self.battery.max_time_jump, publishers))
         state = RecordState(update.record, BatterySimState)
         if self._state_pub.get_subscription_count() > 0:
             self._state_pub.publish(state.message)

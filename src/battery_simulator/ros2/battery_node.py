@@ -70,7 +70,8 @@ def make_battery(node, settings, params, charging, log, clock_node=None):
     sim_time = bool(clock_node.get_parameter('use_sim_time').value)
     clock = (lambda: clock_node.get_clock().now().nanoseconds * 1e-9) if sim_time else time.monotonic
     return Battery(params, settings['initial_percentage'], charging, clock=clock, sim_time=sim_time,
-                   time_scale=settings.get('time_scale', TIME_SCALE.default), mode_name=MODE_PARAMETER, log=log)
+                   time_scale=settings.get('time_scale', TIME_SCALE.default), mode_name=MODE_PARAMETER, log=log,
+                   max_time_jump=settings['max_time_jump'])
 
 
 class OneBattery:

@@ -75,7 +75,8 @@ def ending_quietly():
     rclpy's own handlers (installed by rclpy.init) shut the context down; before
     rclpy.init and after its shutdown, ours turn the signal into SystemExit."""
     def _stop(signum, frame):
-        raise SystemExit(128 + signum) if signum == signal.SIGTERM else KeyboardInterrupt()
+        raise KeyboardInterrupt()
+    signal.signal(signal.SIGINT, _stop)
     signal.signal(signal.SIGTERM, _stop)
     try:
         yield
