@@ -4,6 +4,8 @@ import math
 
 import pytest
 
+from battery_simulator.core.time_base import TimeBase
+
 sim_clock = pytest.importorskip('battery_simulator.robot.sim_clock', reason='needs the devel space')
 fake_base = pytest.importorskip('battery_simulator.robot.fake_base')
 patrol = pytest.importorskip('battery_simulator.robot.patrol_and_dock')
