@@ -3,12 +3,12 @@
 #
 # The first call sets it up from a fresh clone (later calls check in well under a second):
 #   1. what apt must add: cmake, g++, python3-dev, python3-venv (as root, or with sudo);
-#   2. a venv in build/ros2/venv made with Debian's /usr/bin/python3 WITHOUT system site packages
+#   2. a venv in build/.ros2/venv made with Debian's /usr/bin/python3 WITHOUT system site packages
 #      (Debian's ROS 1 sensor_msgs would shadow ROS 2's), holding the PyPI wheels of
 #      tools/ros2/requirements.txt;
 #   3. the wheels' CMake fix-up (fix_wheel_cmake below);
 #   4. colcon build of this clone, through its own CMakeLists.txt (the ament branch), into
-#      build/ros2/ws (rebuilt when an interface, CMakeLists.txt, package.xml or the file list changes;
+#      build/.ros2/ws (rebuilt when an interface, CMakeLists.txt, package.xml or the file list changes;
 #      Python files are symlinked, so an edit needs no rebuild);
 #   5. DDS on this machine only: ROS_AUTOMATIC_DISCOVERY_RANGE=SYSTEM_DEFAULT and the Fast DDS profile
 #      tools/ros2/fastdds_localhost.xml (shared memory and UDPv4 on 127.0.0.1, unicast discovery).
@@ -17,7 +17,9 @@
 # A ROS 2 user with a real ROS 2 installation needs none of this: colcon build, then ros2 run.
 set -eo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-state="$root/build/ros2"
+# build/.ros2: a dot-directory, which ROS 1's roslaunch and rosrun do not walk when they look for a
+# file of the package (they walk the whole package directory, build/ included)
+state="$root/build/.ros2"
 venv="$state/venv"
 ws="$state/ws"
 log="$state/setup.log"
@@ -57,7 +59,7 @@ ensure_venv() {
   wanted=$(sha1sum "$root/tools/ros2/requirements.txt" | cut -c1-40)
   [ -f "$venv/.requirements" ] && [ "$(cat "$venv/.requirements")" = "$wanted" ] && return
   ensure_apt_packages
-  say "creating the ROS 2 venv (build/ros2/venv: PyPI wheels, about 300 MB)"
+  say "creating the ROS 2 venv (build/.ros2/venv: PyPI wheels, about 300 MB)"
   rm -rf "$venv"
   /usr/bin/python3 -m venv "$venv" >>"$log" 2>&1 || fail "python3 -m venv"
   "$venv/bin/pip" install -q -r "$root/tools/ros2/requirements.txt" >>"$log" 2>&1 || fail "pip install"
@@ -74,10 +76,12 @@ ensure_build() {
   local wanted
   wanted=$(build_stamp)
   [ -f "$ws/.built" ] && [ "$(cat "$ws/.built")" = "$wanted" ] && return
-  say "colcon build of this clone (build/ros2/ws)"
+  say "colcon build of this clone (build/.ros2/ws)"
+  # The workspace sees the clone through a link (CMake refuses the venv's include directories as
+  # part of the source tree otherwise); the clone's build/ holds the ROS 1 build and this workspace.
   mkdir -p "$ws/src"
   ln -sfn "$root" "$ws/src/battery_simulator"
-  touch "$root/build/COLCON_IGNORE"   # the clone's own build/ holds the ROS 1 build and this workspace
+  touch "$root/build/COLCON_IGNORE"
   (cd "$ws" && env -i HOME="$HOME" PATH="$venv/bin:/usr/bin:/bin" ROS_VERSION=2 ROS_DISTRO=kilted \
       AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" \
       "$venv/bin/colcon" build --symlink-install --base-paths src --event-handlers console_direct- \

@@ -17,7 +17,7 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import BatteryFleetState
-from battery_simulator.srv import InjectFault, SetLoad
+from battery_simulator.srv import InjectFault, SetLoad, SetState
 from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(6)]
@@ -45,10 +45,14 @@ class TestFleet(unittest.TestCase):
         self.assertFalse(rospy.has_param('/robot6/MyRobot/BatteryStatus'), 'exactly n robots')
         self.assertEqual(node_pid('/battery_fleet'), node_pid('/battery_fleet'))
         self.assertNotEqual(node_pid('/battery_fleet'), node_pid('/battery_fleet_1'), 'two processes')
-        for host, names in (('/battery_fleet', ROBOTS[:3]), ('/battery_fleet_1', ROBOTS[3:])):
-            states = rospy.wait_for_message(host + '/states', BatteryFleetState, timeout=10.0)
-            self.assertEqual(list(states.names), names)
-            self.assertEqual(len(states.states), 3)
+        # every host publishes its robots on the one topic: one subscription gets the whole fleet
+        states = Recorder('/battery_fleet/states', BatteryFleetState)
+        wanted = set(ROBOTS + ['alpha', 'beta'])
+        wait_for(lambda: {n for m in states.since(0) for n in m.names} >= wanted, 10.0,
+                 'every robot of the three hosts on /battery_fleet/states')
+        for msg in states.since(0):
+            self.assertIn(list(msg.names), [ROBOTS[:3], ROBOTS[3:], ['alpha', 'beta']], 'one host a message')
+            self.assertEqual(len(msg.states), len(msg.names))
 
     def test_1b_every_robot_publishes_at_the_rate(self):
         marks = {name: self.status[name].count() for name in ROBOTS}
@@ -107,6 +111,23 @@ class TestFleet(unittest.TestCase):
             self.assertLess(abs(resumed.percentage - last[name]), 0.01,
                             '%s resumed at %.2f %% after %.2f %%' % (name, 100 * resumed.percentage, 100 * last[name]))
 
+    def test_5_a_host_given_a_robot_another_host_serves_refuses_it(self):
+        name = 'intruding_host'
+        rospy.set_param('/%s/robots' % name, [{'name': 'robot1'}, {'name': 'robot2'}])
+        intruder = subprocess.run(node_command('battery_fleet.py') + ['__name:=' + name], capture_output=True,
+                                  text=True, timeout=60)
+        output = intruder.stdout + intruder.stderr
+        self.assertNotEqual(intruder.returncode, 0, 'the intruder ran:\n' + output)
+        fatal = [line for line in output.splitlines() if 'FATAL' in line]
+        self.assertEqual(len(fatal), 1, output)
+        self.assertIn('robot1 is already served by /battery_fleet', fatal[0])
+        self.assertNotIn('Traceback', output)
+        before = self.status['robot1'].count()
+        reply = rospy.ServiceProxy('/robot1/battery_simulator/set_state', SetState)(
+            percentage=float('nan'), temperature_c=float('nan'), state_of_health=float('nan'))
+        self.assertTrue(reply.success, 'robot1 keeps its services after the intruder ended')
+        wait_for(lambda: self.status['robot1'].count() > before + 2, 10.0, 'robot1 battery_status flowing')
+
     def test_4_a_host_of_100_starts_under_a_soft_limit_of_1024_open_files(self):
         name = 'hundred'
         rospy.set_param('/%s/robots' % name, 100)
@@ -117,11 +138,13 @@ class TestFleet(unittest.TestCase):
         host = subprocess.Popen(node_command('battery_fleet.py') + ['__name:=' + name], preexec_fn=soft_limit_1024,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
-            states = Recorder('/%s/states' % name, BatteryFleetState)
-            wait_for(lambda: states.count() > 0 and len(states.latest().names) == 100 or host.poll() is not None,
-                     60.0, 'all 100 robots on ~states')
+            states = Recorder('/battery_fleet/states', BatteryFleetState)
+
+            def hundred():
+                return [m for m in states.since(0) if len(m.names) == 100 and m.names[0] == 'h0']
+            wait_for(lambda: hundred() or host.poll() is not None, 60.0, 'all 100 robots on battery_fleet/states')
             self.assertIsNone(host.poll(), 'the host died (exit %s)' % host.poll())
-            self.assertEqual(len(states.latest().names), 100)
+            self.assertEqual(len(hundred()[0].states), 100)
             raised = [m for m in self.log.since(0) if m.name == '/' + name and 'open files' in m.msg]
             self.assertEqual(len(raised), 1, 'one line about the raised limit')
         finally:

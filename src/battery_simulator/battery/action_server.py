@@ -69,8 +69,9 @@ from battery_simulator.core.settings import BATTERY_SETTINGS
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros import topics
 from battery_simulator.ros.cached_param import CachedParam
-from battery_simulator.ros.startup import (StartupError, clock_publishers, init_node, read_private_settings,
-                                           signals_held, wait_for_rosout)
+from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, clock_publishers,
+                                           exit_on_startup_error, init_node, read_private_settings, signals_held,
+                                           wait_for_rosout)
 from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, PredictResponse, SetLoad,
                                    SetLoadResponse, SetState, SetStateResponse)
 
@@ -463,6 +464,10 @@ class _LatestStateOnConnect(rospy.SubscribeListener):
 def main():
     with signals_held():
         settings = init_node('BatterySimServer', read_settings)
+        try:
+            check_one_battery_per_name([rospy.get_namespace()])
+        except StartupError as error:
+            exit_on_startup_error(error)
         settings.pop('params_path')
         loop = UpdateLoop(settings.pop('update_rate'))
         store = StateStore(rospy.resolve_name('~saved_state'), settings.pop('state_file'))

@@ -20,11 +20,12 @@ hundreds of entries), written at most twice a second.
   - ``~initial_percentage`` (0..100): every robot's level; unset with a count: staggered 100, 95, ... 20
   - ``~rate``, ``~frame_id``, ``~stale_timeout``, ``~low_percentage``, ``~critical_percentage``,
     ``~hysteresis``: as battery_state_pub.py, for every robot
-  - ``~fleet_rate`` (float, Hz, 0 < r <= 100): rate of ``~states`` (default 1)
+  - ``~fleet_rate`` (float, Hz, 0 < r <= 100): rate of ``battery_fleet/states`` (default 1)
   - ``~saved_states`` (str, JSON): written by the node; a respawned host resumes every robot from it
 
 :Publishes:
-  - ``~states`` (battery_simulator/BatteryFleetState): every robot's BatteryState, while subscribed
+  - ``battery_fleet/states`` (battery_simulator/BatteryFleetState): this host's robots' BatteryStates, while
+    subscribed; every host of a fleet publishes on this one topic (a subscriber merges by name)
 """
 import resource
 import threading
@@ -40,10 +41,13 @@ from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop, Statu
 from battery_simulator.core.fleet import FleetError, robot_specs
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.msg import BatteryFleetState
-from battery_simulator.ros.startup import (StartupError, checked_param, ending_the_node_on_error,
+from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, checked_param,
+                                           ending_the_node_on_error,
                                            exit_on_startup_error, init_node, is_number, signals_held,
                                            wait_for_rosout)
 
+#: every host's robots, on one topic (in the hosts' namespace): the whole fleet in one subscription
+FLEET_STATES = 'battery_fleet/states'
 #: file descriptors one robot holds (rospy: one per topic, service and connection; measured ~13)
 FILES_PER_ROBOT = 16
 FILES_FOR_THE_PROCESS = 64
@@ -115,7 +119,8 @@ class FleetHost:
             self.names.append(robot.name)
             self.servers.append(battery)
             self.publishers.append(status)
-        self._states_pub = rospy.Publisher('~states', BatteryFleetState, queue_size=1)
+        # every host publishes its robots on the one topic: a subscriber merges by name
+        self._states_pub = rospy.Publisher(rospy.resolve_name(FLEET_STATES), BatteryFleetState, queue_size=1)
 
     def start(self):
         rospy.on_shutdown(self.stop)
@@ -155,6 +160,7 @@ def main():
         settings = init_node('battery_fleet', read_settings)
         try:
             raise_open_file_limit(len(settings['robots']))
+            check_one_battery_per_name([rospy.resolve_name(robot.name) + '/' for robot in settings['robots']])
         except StartupError as error:
             exit_on_startup_error(error)
         server = settings['server']

@@ -56,6 +56,32 @@ def clock_publishers(period_s=10.0):
     return names
 
 
+def batteries_served_elsewhere(namespaces, service='battery_simulator/set_state'):
+    """{namespace: node} for each of ``namespaces`` ('/robot1/') whose battery another node already serves
+    (its ``service`` is registered at the master by a node other than this one: a respawned node has
+    this node's name and takes its place). One master call, at start-up."""
+    services = rosgraph.Master(rospy.get_name()).getSystemState()[2]
+    providers = {name: nodes for name, nodes in services}
+    me = rospy.get_name()
+    found = {}
+    for namespace in namespaces:
+        others = [node for node in providers.get(namespace + service, []) if node != me]
+        if others:
+            found[namespace] = others[0]
+    return found
+
+
+def check_one_battery_per_name(namespaces):
+    """StartupError naming the first robot another node already serves (exactly one model per name)."""
+    taken = batteries_served_elsewhere(namespaces)
+    if taken:
+        namespace = sorted(taken)[0]
+        raise StartupError('robot %s is already served by %s: exactly one battery model per robot name%s' % (
+            namespace.strip('/') or '/', taken[namespace],
+            '' if len(taken) == 1 else ' (%d of these robots are: %s)' % (
+                len(taken), ', '.join(n.strip('/') for n in sorted(taken)))))
+
+
 def wait_for_rosout(timeout_s=2.0):
     """Wait (bounded, wall time) until /rosout listens, so that start-up lines reach rqt_console and tests.
 
