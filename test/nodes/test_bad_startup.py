@@ -30,7 +30,7 @@ def config_file(name, content):
     return path
 
 
-SERVER, PUBLISHER, FLEET = 'battery_sim_server.py', 'battery_state_pub.py', 'battery_fleet.py'
+SERVER, PUBLISHER, FLEET, CLOCK = 'battery_sim_server.py', 'battery_state_pub.py', 'battery_fleet.py', 'sim_clock.py'
 BAD_VALUE_YAML = config_file('bad_value', b'preset: lg_hg2_3s1p\nload_current_a: -2\n')
 #: case -> (script, [param:=value ...]); each runs once, all at once
 CASES = {
@@ -55,6 +55,14 @@ CASES = {
     'fleet_config': (FLEET, ['_robots:=[{name: a, config: /nonexistent/b.yaml}]']),
     'fleet_count': (FLEET, ['_robots:=0']),
     'fleet_time_scale': (FLEET, ['_robots:=2', '_time_scale:=-3']),
+    # fleet.launch's n and hosts, as the launch passes them to each host
+    'launch_n': (FLEET, ['_fleet_size:=abc', '_hosts:=1', '_host_index:=0']),
+    'launch_hosts_zero': (FLEET, ['_fleet_size:=3', '_hosts:=0', '_host_index:=0']),
+    'launch_hosts_negative': (FLEET, ['_fleet_size:=3', '_hosts:=-2', '_host_index:=0']),
+    'launch_hosts_above_n': (FLEET, ['_fleet_size:=2', '_hosts:=5', '_host_index:=0']),
+    'clock_start': (CLOCK, ['_start:=5e9']),
+    'clock_start_int': (CLOCK, ['_start:=5000000000']),
+    'clock_runs_out': (CLOCK, ['_start:=4294967294.9', '_speed:=10']),
 }
 
 
@@ -126,6 +134,17 @@ class TestBadStartup(unittest.TestCase):
         self.check_rejected('fleet_config', 'robot a', '/nonexistent/b.yaml', 'cannot read')
         self.check_rejected('fleet_count', 'robots', '0', 'a count in [1, 10000]')
         self.check_rejected('fleet_time_scale', 'time_scale', '-3', 'a number > 0')
+
+    def test_fleet_launch_arguments_are_named(self):
+        self.check_rejected('launch_n', 'argument n', "'abc'", 'a whole number of robots')
+        self.check_rejected('launch_hosts_zero', 'argument hosts', '0', 'in [1, n = 3]')
+        self.check_rejected('launch_hosts_negative', 'argument hosts', '-2', 'in [1, n = 3]')
+        self.check_rejected('launch_hosts_above_n', 'argument hosts', '5', 'in [1, n = 2]')
+
+    def test_the_clock_refuses_a_start_no_ros_time_holds_and_stops_at_the_end(self):
+        self.check_rejected('clock_start', 'start', '5000000000', '4294967295')
+        self.check_rejected('clock_start_int', 'parameter', '5000000000', 'as a float')
+        self.check_rejected('clock_runs_out', 'sim_clock', '4294967295', 'the largest a ROS time holds')
 
     def test_numbers_that_roslaunch_passes_as_text_are_accepted(self):
         name = 'text_numbers_%d' % next(RUN_NUMBERS)

@@ -16,6 +16,8 @@ hundreds of entries), written at most twice a second.
   - ``~robots`` (int or list): a count N, or a list of ``{name, config, initial_percentage, charging}``
     (every key but name optional) (default 1)
   - ``~prefix`` (str), ``~first`` (int): with a count, names ``<prefix><first + k>`` (default robot, 0)
+  - ``~fleet_size``, ``~hosts``, ``~host_index`` (int): set by fleet.launch in place of ``~robots`` and
+    ``~first``: this host's even share of fleet_size robots among hosts (checked: one line naming n or hosts)
   - ``~config``, ``~time_scale``, ``~update_rate``, ``~charging``: as battery_sim_server.py, for every robot
   - ``~initial_percentage`` (0..100): every robot's level; unset with a count: staggered 100, 95, ... 20
   - ``~rate``, ``~frame_id``, ``~stale_timeout``, ``~low_percentage``, ``~critical_percentage``,
@@ -38,7 +40,7 @@ from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import FleetStore
 from battery_simulator.battery.state_publisher import BatteryStatePublisher, publish_at_rate
 from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
-from battery_simulator.core.fleet import FleetError, robot_specs
+from battery_simulator.core.fleet import FleetError, host_share, robot_specs
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, checked_param,
@@ -59,11 +61,17 @@ def read_settings():
     publisher = state_publisher.read_settings()
     staggered = not rospy.has_param('~initial_percentage')
     try:
+        if rospy.has_param('~fleet_size'):   # fleet.launch: this host's share of n robots among hosts
+            first, count = host_share(rospy.get_param('~fleet_size'), rospy.get_param('~hosts', 1),
+                                      rospy.get_param('~host_index', 0))
+        else:
+            first = checked_param('~first', 0, lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+                                  'a whole number >= 0')
+            count = rospy.get_param('~robots', 1)
         robots = robot_specs(
-            rospy.get_param('~robots', 1),
+            count,
             prefix=checked_param('~prefix', 'robot', lambda v: isinstance(v, str), 'a string'),
-            first=checked_param('~first', 0, lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
-                                'a whole number >= 0'),
+            first=first,
             config=server['params_path'], initial_percentage=None if staggered else server['initial_percentage'],
             charging=bool(server['charging']))
     except FleetError as error:

@@ -84,3 +84,24 @@ def _robot_entry(index, entry, seen, config, initial_percentage, charging):
     if robot_charging not in (True, False, 0, 1):
         raise FleetError('robot %s: charging = %r is invalid: must be true or false' % (name, robot_charging))
     return RobotSpec(name, robot_config, float(level), bool(robot_charging))
+
+
+def host_share(n, hosts, index):
+    """(first robot number, count) of host ``index`` of ``hosts`` that split ``n`` robots evenly
+    (fleet.launch's arguments n and hosts); FleetError naming the argument for a bad one."""
+    def whole(value):
+        if isinstance(value, str):
+            try:
+                value = int(value.strip())
+            except ValueError:
+                return None
+        return value if isinstance(value, int) and not isinstance(value, bool) else None
+    count, host_count = whole(n), whole(hosts)
+    if count is None or not 1 <= count <= MAX_ROBOTS:
+        raise FleetError('fleet.launch argument n = %r is invalid: must be a whole number of robots in [1, %d]'
+                         % (n, MAX_ROBOTS))
+    if host_count is None or not 1 <= host_count <= count:
+        raise FleetError('fleet.launch argument hosts = %r is invalid: must be a whole number of host processes '
+                         'in [1, n = %d]' % (hosts, count))
+    first = index * count // host_count
+    return first, (index + 1) * count // host_count - first

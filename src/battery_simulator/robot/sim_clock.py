@@ -15,7 +15,8 @@ its battery 480 s emptier at speed 240 than at speed 1.
 
 :ROS Parameters:
   - ``~speed`` (float > 0, at most 10000): ROS seconds per wall second (default 1)
-  - ``~start`` (float >= 0, s): ROS time at the first tick (default 0)
+  - ``~start`` (float, 0 .. 4294967295 s): ROS time at the first tick (default 0); should the clock
+    reach 4294967295 s (the largest a ROS time holds), it stops with one fatal line
   - ``~tick_hz`` (float, Hz, 0 < f <= 10000): ticks per wall second (default 1000)
   - ``~wait_for`` (list of topic names): hold ROS time until each has a publisher (default none)
   - ``~wait_timeout`` (float > 0, wall s): start anyway after this long, with a warning (default 60)
@@ -29,7 +30,7 @@ import rosgraph
 import rospy
 from rosgraph_msgs.msg import Clock
 
-from battery_simulator.ros.startup import checked_param, init_node, is_number
+from battery_simulator.ros.startup import StartupError, checked_param, exit_on_startup_error, init_node, is_number
 
 BEHIND_S = 0.1   # further behind its wall schedule than this, the clock gives up catching up
 HOLD_PERIOD_S = 0.1   # while holding: how often the held time is published and the master asked
@@ -38,12 +39,18 @@ HOLD_PERIOD_S = 0.1   # while holding: how often the held time is published and 
 def read_settings():
     return dict(
         speed=checked_param('~speed', 1.0, lambda v: is_number(v) and 0 < v <= 10000, 'a number in (0, 10000]'),
-        start=checked_param('~start', 0.0, lambda v: is_number(v) and v >= 0, 'a number >= 0 s'),
+        start=checked_param('~start', 0.0, lambda v: is_number(v) and 0 <= v <= MAX_ROS_TIME_S,
+                            'a number in [0, %d] s (a ROS time holds at most %d s)' % (MAX_ROS_TIME_S,
+                                                                                      MAX_ROS_TIME_S)),
         tick_hz=checked_param('~tick_hz', 1000.0, lambda v: is_number(v) and 0 < v <= 10000,
                               'a number in (0, 10000] Hz'),
         wait_for=checked_param('~wait_for', [], _topic_names, 'a list of topic names'),
         wait_timeout=checked_param('~wait_timeout', 60.0, lambda v: is_number(v) and v > 0, 'a number > 0 s'),
     )
+
+
+#: the largest whole second a ROS time holds (uint32 seconds)
+MAX_ROS_TIME_S = 4294967295
 
 
 def _topic_names(value):
@@ -96,8 +103,12 @@ class SimClock:
         ticks, next_tick = 0, time.monotonic()
         while not rospy.is_shutdown():
             ticks += 1
-            self._pub.publish(Clock(clock=rospy.Time.from_sec(tick_time(self._start, self._speed, self._tick_hz,
-                                                                         ticks))))
+            now = tick_time(self._start, self._speed, self._tick_hz, ticks)
+            if now >= MAX_ROS_TIME_S:   # after 4.3e5 s (5 days) of wall time at the fastest speed from 0
+                exit_on_startup_error(StartupError(
+                    'sim_clock: ROS time reached %d s, the largest a ROS time holds: the clock stops (restart it '
+                    'with a smaller ~start)' % MAX_ROS_TIME_S), stop_launch=False)
+            self._pub.publish(Clock(clock=rospy.Time.from_sec(now)))
             next_tick += period_s
             delay_s = next_tick - time.monotonic()
             if delay_s > 0.0:

@@ -109,7 +109,16 @@ def init_node(name, read_settings):
     """rospy.init_node(name), then read_settings(): its settings, or one fatal line and exit 1.
     SIGINT and SIGTERM are node_signals.py's (rospy's handler can hang a node that is starting)."""
     end_nodes_on_signals()
-    rospy.init_node(name, disable_signals=True)
+    try:
+        rospy.init_node(name, disable_signals=True)
+    except OverflowError:   # rospy sets the command line's _param:=value on the master (XML-RPC: 32-bit)
+        too_large = [argument for argument in sys.argv[1:] if argument.startswith('_') and ':=' in argument
+                     and argument.split(':=', 1)[1].strip().lstrip('-').isdigit()
+                     and abs(int(argument.split(':=', 1)[1])) > 2 ** 31 - 1]
+        print('[FATAL] %s: parameter %s is invalid: an integer beyond 32 bits, which the parameter server cannot '
+              'hold (give it as a float, e.g. 5e9)' % (name, ', '.join(too_large) or '(on the command line)'),
+              file=sys.stderr)
+        sys.exit(1)
     try:
         return read_settings()
     except StartupError as error:
