@@ -1,4 +1,5 @@
 """The catkin package itself: generated action classes, dependencies, lint, scripts."""
+import os
 import re
 import shutil
 import subprocess
@@ -106,7 +107,7 @@ def test_catkin_lint_reports_nothing(tmp_path):
     copy = tmp_path / 'battery_simulator'  # lint wants the folder named as the package
     shutil.copytree(ROOT, copy, ignore=shutil.ignore_patterns('build', '.git', '__pycache__'))
     result = subprocess.run(['catkin_lint', '-W2', '--offline', str(copy)], capture_output=True, text=True,
-                            timeout=120)
+                            timeout=120, env=dict(os.environ, ROS_VERSION='1'))   # package.xml's conditions
     problems = [line for line in (result.stdout + result.stderr).splitlines()
                 if re.search(r'(error|warning|notice):', line)]
     assert result.returncode == 0 and not problems, '\n'.join(problems) or result.stderr
