@@ -43,6 +43,8 @@ class TestFleet(unittest.TestCase):
         for name, level, expected in zip(ROBOTS, first, (1.00, 0.95, 0.90, 0.85, 0.80, 0.75)):
             self.assertAlmostEqual(level, expected, delta=0.01, msg=name)
         self.assertFalse(rospy.has_param('/robot6/MyRobot/BatteryStatus'), 'exactly n robots')
+        serials = [self.status[name].latest().serial_number for name in ROBOTS]
+        self.assertEqual(len(set(serials)), len(ROBOTS), 'each robot its own serial number: %s' % serials)
         self.assertEqual(node_pid('/battery_fleet'), node_pid('/battery_fleet'))
         self.assertNotEqual(node_pid('/battery_fleet'), node_pid('/battery_fleet_1'), 'two processes')
         # every host publishes its robots on the one topic: one subscription gets the whole fleet

@@ -40,7 +40,7 @@ from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import FleetStore
 from battery_simulator.battery.state_publisher import BatteryStatePublisher, publish_at_rate
 from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
-from battery_simulator.core.fleet import FleetError, host_share, robot_specs
+from battery_simulator.core.fleet import FleetError, host_share, robot_params, robot_specs
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, checked_param,
@@ -117,7 +117,8 @@ class FleetHost:
             namespace = rospy.resolve_name(robot.name) + '/'
             log = RobotLog(robot.name + ': ', progress=False)
             battery = BatterySimServer(
-                namespace, namespace + 'BatterySimServer', configs[robot.config], server['time_scale'],
+                namespace, namespace + 'BatterySimServer', robot_params(configs[robot.config], robot.name),
+                server['time_scale'],
                 robot.initial_percentage, robot.charging, self.store.robot(robot.name), self.loop, status_timer, log,
                 server['max_time_jump'])
             status = BatteryStatePublisher(namespace, namespace + 'battery_state_pub', changes=self.changes,

@@ -7,7 +7,7 @@ count and no fleet-wide initial percentage the levels are staggered as
 fleet.launch always did: 100, 95, 90, ..., wrapping at 20.
 """
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from battery_simulator.core.parameters import is_number
 
@@ -105,3 +105,9 @@ def host_share(n, hosts, index):
                          'in [1, n = %d]' % (hosts, count))
     first = index * count // host_count
     return first, (index + 1) * count // host_count - first
+
+
+def robot_params(params, name):
+    """A robot's battery parameters in a fleet: its own serial number (the diagnostics' hardware_id), so
+    that no two robots of a fleet report the same battery."""
+    return replace(params, serial_number='%s-%s' % (params.serial_number, name))

@@ -32,7 +32,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from battery_simulator.core.fleet import FleetError, robot_specs
+from battery_simulator.core.fleet import FleetError, robot_params, robot_specs
 from battery_simulator.core.parameters import is_number
 from battery_simulator.core.state_file import FleetStateFile
 from battery_simulator.msg import BatteryFleetState
@@ -137,7 +137,8 @@ class FleetHost:
         self._node = node
         self._store = FleetStateFile(settings.battery['state_file'], NodeLog(node.get_logger()).warn) \
             if settings.battery['state_file'] else _NoStore()
-        self.robots = [Robot(spec, settings, settings.configs[spec.config], self._store, executor)
+        self.robots = [Robot(spec, settings, robot_params(settings.configs[spec.config], spec.name), self._store,
+                             executor)
                        for spec in settings.robots]
         for robot in self.robots:
             robot.front.update()
