@@ -81,8 +81,8 @@ def test_empty_arrays_count_as_zeros_and_signed_motion_counts_as_cmd_vel_does():
      'pack can deliver)'),
     (Segment(60, power_w=200.0, speed_mps=2.0), NAN, 'power_w[0] + the motion of speed_mps[0] and turn_radps[0] = '
      '300.0 is invalid: must be a number in [0, 252] W (the most the pack can deliver)'),
-    (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (NaN: no charge)'),
-    (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (NaN: no charge)'),
+    (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
+    (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
 ])
 def test_loads_beyond_the_pack_and_bad_levels_are_refused(segment, charge_to, message):
     with pytest.raises(PredictionError) as error:
