@@ -38,13 +38,14 @@ act on the model through the same lock.
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
   - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): see FAULTS
   - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after
-    it) would do, from a copy of the model (core/prediction.py); changes nothing, so it replies at once
+    it) would do, from a copy of the model (core/prediction.py), computed in the process's prediction
+    workers (prediction_service.py); changes nothing, so it replies once computed
   Each other service (and dynamic_reconfigure) replies once battery_state_pub has sent the
   state it changed on battery_status (publish_now, acknowledged on status_sent; without
   a battery_state_pub, once it is published), so the next battery_status shows the change.
 """
-import copy
 import math
+import pickle
 import random
 import threading
 import time
@@ -59,6 +60,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
+from battery_simulator.battery import prediction_service
 from battery_simulator.battery.battery_state import SimState
 from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import StateStore
@@ -67,7 +69,6 @@ from battery_simulator.cfg import BatterySimConfig
 from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
 from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, default_config_path,
                                                load_power_error, load_yaml)
-from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
 from battery_simulator.core.time_base import TimeBase
 from battery_simulator.msg import (BatterySimState, battery_simAction, battery_simFeedback,
                                    battery_simResult)
@@ -75,8 +76,8 @@ from battery_simulator.ros import topics
 from battery_simulator.ros.cached_param import CachedParam
 from battery_simulator.ros.startup import (StartupError, checked_param, init_node, is_number, signals_held,
                                            wait_for_rosout)
-from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, PredictResponse, SetLoad,
-                                   SetLoadResponse, SetState, SetStateResponse)
+from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
+                                   SetStateResponse)
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 INVALID_LOG_PERIOD_S = 10.0
@@ -240,7 +241,7 @@ class BatterySimServer:
             rospy.Service(ns + topics.SET_STATE, SetState, self._set_state),
             rospy.Service(ns + topics.RESET, Trigger, self._reset),
             rospy.Service(ns + topics.INJECT_FAULT, InjectFault, self._inject_fault),
-            rospy.Service(ns + topics.PREDICT, Predict, self._predict),
+            prediction_service.advertise(ns + topics.PREDICT, self._predict),
         ]
         self._publish_state(self.model.snapshot())
         self._server.start()
@@ -593,25 +594,13 @@ class BatterySimServer:
                                                                       else 'cleared'))
 
     def _predict(self, request):
-        """What the request's plan would do, from a copy of the model taken under the lock: the copy is
-        brought to now at its present loads, and the plan's motion takes the place of cmd_vel's."""
-        try:
-            segments = plan_from_arrays(request.duration_s, request.current_a, request.power_w,
-                                        request.speed_mps, request.turn_radps)
-            with self._lock:
-                model = copy.deepcopy(self.model)
-                behind_s = self._time_base.pending(self._clock())
-            model.step(behind_s)
-            model.set_extra_load(MOTION_LOAD)
-            result = predict(model, segments, request.charge_to_percentage)
-        except PredictionError as error:
-            nan = math.nan
-            return PredictResponse(success=False, message=str(error), end_percentage=nan, end_voltage_v=nan,
-                                   min_voltage_v=nan, max_temperature_c=nan, cut_off_at_s=nan, charge_time_s=nan)
-        return PredictResponse(success=True, message=result.summary(), feasible=result.feasible,
-                               end_percentage=result.end_percentage, end_voltage_v=result.end_voltage_v,
-                               min_voltage_v=result.min_voltage_v, max_temperature_c=result.max_temperature_c,
-                               cut_off_at_s=result.cut_off_at_s, charge_time_s=result.charge_time_s)
+        """What the request's plan would do, from a copy of the model taken under the lock (computed in the
+        process's prediction workers): the copy is brought to now at its present loads, and the plan's
+        motion takes the place of cmd_vel's."""
+        with self._lock:
+            model = pickle.dumps(self.model, pickle.HIGHEST_PROTOCOL)
+            behind_s = self._time_base.pending(self._clock())
+        return prediction_service.answer(self._ns, request, model, behind_s, dropped_loads=(MOTION_LOAD,))
 
     def _reconfigure_callback(self, config, level):
         """Apply live changes, validated like the start-up values: a refused value is logged and the old one kept.
