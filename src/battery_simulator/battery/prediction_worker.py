@@ -27,8 +27,10 @@ of ROS imported there):
     message (WorkerFailed).
   - Waiting is bounded: a key (a robot) has at most ``per_key`` jobs waiting
     or running, all keys together ``max_waiting`` jobs and
-    ``max_queued_segments`` segments; beyond, a job is refused at once with
-    Busy ("busy, try again"). A caller waits at most ``timeout_s``.
+    ``max_queued_segments`` segments; a job beyond waits at most ``admit_s``
+    for room, then is refused with Busy ("busy, try again"), so that a
+    client asking again at once does not spin. A caller waits at most
+    ``timeout_s`` in all.
 
 The process's one pool is ``shared_pool()``.
 """
@@ -58,6 +60,8 @@ PER_KEY = 4
 MAX_WAITING = 256
 #: segments all waiting jobs together may have (about 6 s of a worker's time; 40 MB of plans)
 MAX_QUEUED_SEGMENTS = 1_000_000
+#: a job beyond those bounds waits this long (s) for room before it is refused
+ADMIT_S = 1.0
 #: a caller waits this long (s) for its answer at most
 TIMEOUT_S = 15.0
 #: a job running longer (s) ends its worker (the longest allowed plan takes about 2 s)
@@ -83,8 +87,9 @@ class PredictionPool:
     """
 
     def __init__(self, workers=WORKERS, per_key=PER_KEY, max_waiting=MAX_WAITING,
-                 max_queued_segments=MAX_QUEUED_SEGMENTS, job_timeout_s=JOB_TIMEOUT_S):
+                 max_queued_segments=MAX_QUEUED_SEGMENTS, admit_s=ADMIT_S, job_timeout_s=JOB_TIMEOUT_S):
         self._per_key, self._max_waiting, self._max_segments = per_key, max_waiting, max_queued_segments
+        self._admit_s = admit_s
         self._job_timeout_s = job_timeout_s
         self._cond = threading.Condition()
         self._queues = OrderedDict()   # key -> deque of _Job waiting (round robin: the key served last goes last)
@@ -128,17 +133,24 @@ class PredictionPool:
         ``timeout_s``: try again) or WorkerFailed.
         """
         entry = _Job(key, job, segments)
+        deadline = time.monotonic() + timeout_s
         with self._cond:
-            refusal = self._refusal(key, segments)
-            if refusal:
-                raise Busy(refusal)
+            admit_until = min(time.monotonic() + self._admit_s, deadline)
+            while True:   # wait (a while) for room rather than answer busy at once to a client that asks again
+                refusal = self._refusal(key, segments)
+                left_s = admit_until - time.monotonic()
+                if refusal is None:
+                    break
+                if self._stopping or left_s <= 0.0:
+                    raise Busy(refusal)
+                self._cond.wait(left_s)
             self._queues.setdefault(key, deque()).append(entry)
             self._jobs[key] = self._jobs.get(key, 0) + 1
             self._waiting += 1
             self._segments += segments
             self._cond.notify_all()
             self._add_lane_if_needed()
-        if not entry.done.wait(timeout_s):
+        if not entry.done.wait(max(0.0, deadline - time.monotonic())):
             with self._cond:
                 if not entry.done.is_set():   # still waiting (then forgotten) or running (its reply dropped)
                     queue = self._queues.get(key)

@@ -39,7 +39,7 @@ MAX_PLAN_S = 7 * 86400.0
 #: a plan that long costs about 0.6 s of CPU (in the prediction worker process, not the battery's)
 MAX_SEGMENTS = 100_000
 #: the fast way keeps a copy of the model every this many segments, to redo its first cut-off exactly
-CHECKPOINT_SEGMENTS = 256
+CHECKPOINT_SEGMENTS = 128
 #: the plan's load among the model's named loads
 PLAN_LOAD = 'prediction'
 #: the longest step: a constant current is exact over any step, and this keeps heating and resistance coupled
