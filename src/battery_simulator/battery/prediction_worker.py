@@ -34,6 +34,7 @@ of ROS imported there):
 
 The process's one pool is ``shared_pool()``.
 """
+import math
 import os
 import pickle
 import signal
@@ -66,9 +67,9 @@ ADMIT_S = 1.0
 TIMEOUT_S = 15.0
 #: a job running longer (s) ends its worker (the longest allowed plan takes about 2 s)
 JOB_TIMEOUT_S = 30.0
-#: a worker that ended is started again at most this often (s)
+#: a worker that ended is started again at most this often (s): a job that kills it cannot make a loop
 RESTART_GAP_S = 1.0
-#: a stopping pool waits this long (s) for its workers to end before it kills them
+#: a worker still there this long (s) after SIGTERM gets SIGKILL
 STOP_WAIT_S = 0.5
 
 
@@ -87,10 +88,11 @@ class PredictionPool:
     """
 
     def __init__(self, workers=WORKERS, per_key=PER_KEY, max_waiting=MAX_WAITING,
-                 max_queued_segments=MAX_QUEUED_SEGMENTS, admit_s=ADMIT_S, job_timeout_s=JOB_TIMEOUT_S):
+                 max_queued_segments=MAX_QUEUED_SEGMENTS, admit_s=ADMIT_S, job_timeout_s=JOB_TIMEOUT_S,
+                 restart_gap_s=RESTART_GAP_S):
         self._per_key, self._max_waiting, self._max_segments = per_key, max_waiting, max_queued_segments
         self._admit_s = admit_s
-        self._job_timeout_s = job_timeout_s
+        self.job_timeout_s, self.restart_gap_s = job_timeout_s, restart_gap_s
         self._cond = threading.Condition()
         self._queues = OrderedDict()   # key -> deque of _Job waiting (round robin: the key served last goes last)
         self._running = set()          # keys with a job in a worker
@@ -125,6 +127,11 @@ class PredictionPool:
     def worker_pids(self):
         """The process ids of the workers running now."""
         return [pid for pid in (lane.pid() for lane in self._lanes) if pid is not None]
+
+    def jobs(self, key=None):
+        """How many jobs (of ``key``, or of all keys) are waiting or running, and the keys running."""
+        with self._cond:
+            return (self._waiting if key is None else self._jobs.get(key, 0)), sorted(self._running)
 
     def run(self, key, job, segments, timeout_s=TIMEOUT_S):
         """The Prediction of ``job`` (see _answer) for ``key``, which has ``segments`` segments.
@@ -236,10 +243,6 @@ class PredictionPool:
     def stopping(self):
         return self._stopping
 
-    @property
-    def job_timeout_s(self):
-        return self._job_timeout_s
-
 
 class _Job:
     """One caller's job, and its reply once done."""
@@ -262,7 +265,7 @@ class _Lane:
         self._lock = threading.Lock()   # the process and its connection
         self._process = None
         self._conn = None
-        self._started_at = -RESTART_GAP_S
+        self._started_at = -math.inf
 
     def start(self, spawn=True):
         if spawn:
@@ -279,12 +282,16 @@ class _Lane:
             entry = self._pool.take()
             if entry is None:
                 return
-            self._pool.done(entry, self._ask(entry.job))
+            try:
+                reply = self._ask(entry.job)
+            except Exception as error:   # a defect here must not leave the callers waiting
+                reply = ('failed', 'the prediction failed: %s: %s' % (type(error).__name__, error))
+            self._pool.done(entry, reply)
 
     def _ask(self, job):
         """The worker's reply to ``job``: starts the worker if it is not running."""
         if self.pid() is None:
-            time.sleep(max(0.0, self._started_at + RESTART_GAP_S - time.monotonic()))
+            time.sleep(max(0.0, self._started_at + self._pool.restart_gap_s - time.monotonic()))
             self._spawn()
         with self._lock:
             process, conn = self._process, self._conn
@@ -303,15 +310,15 @@ class _Lane:
                     return ('failed', 'the prediction took longer than %g s: its worker was ended and starts '
                             'again for the next one' % self._pool.job_timeout_s)
             return conn.recv()
-        except (EOFError, OSError):
+        except (EOFError, OSError, TypeError):   # TypeError: the connection was closed meanwhile (stop)
             if self._pool.stopping:
                 return ('busy', 'busy, try again: the node is shutting down')
-            code = self.end_worker()
+            code = self.end_worker(grace_s=STOP_WAIT_S)   # it is ending: its own exit code
             return ('failed', 'the prediction worker ended (%s) during this prediction; it starts again for the '
                     'next one' % _exit_text(code))
 
     def _spawn(self):
-        """Start a worker process (after the last start by RESTART_GAP_S)."""
+        """Start a worker process."""
         with self._lock:
             if self._pool.stopping:
                 return
@@ -326,8 +333,9 @@ class _Lane:
             self._conn = Connection(parent_end.detach())
             self._started_at = time.monotonic()
 
-    def end_worker(self):
-        """End the worker (its socket closed, then SIGTERM, then SIGKILL); its exit code, or None."""
+    def end_worker(self, grace_s=0.0):
+        """End the worker: its socket closed, ``grace_s`` to end by itself, then SIGTERM (it holds nothing
+        worth finishing), and SIGKILL if it lingers; its exit code, or None if there was none."""
         with self._lock:
             process, conn = self._process, self._conn
             self._process = self._conn = None
@@ -336,10 +344,9 @@ class _Lane:
         if process is None:
             return None
         try:
-            return process.wait(STOP_WAIT_S)   # it ends at the end of file, or within PARENT_CHECK_S
+            process.wait(grace_s)
         except subprocess.TimeoutExpired:
-            pass
-        process.terminate()
+            process.terminate()
         try:
             return process.wait(STOP_WAIT_S)
         except subprocess.TimeoutExpired:
