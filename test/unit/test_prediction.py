@@ -7,8 +7,8 @@ import pytest
 
 from battery_simulator.core.battery_model import BatteryModel, Mode, Status
 from battery_simulator.core.parameters import preset
-from battery_simulator.core.prediction import (MAX_PLAN_S, PredictionError, Segment, plan_from_arrays,
-                                               predict)
+from battery_simulator.core.prediction import (CHECKPOINT_SEGMENTS, MAX_PLAN_S, MAX_SEGMENTS, PredictionError,
+                                               Segment, plan_from_arrays, predict)
 from battery_simulator.core.replay import OUTPUT_COLUMNS
 from test_replay import run_cli
 
@@ -55,6 +55,18 @@ def charged(model, target_percentage, step_s=1.0):
     (dict(duration_s=[math.inf]), 'duration_s[0] = inf is invalid: must be a number of seconds >= 0'),
     (dict(duration_s=[MAX_PLAN_S, 1.0]),
      'duration_s totals 604801 s, which is invalid: a plan is at most 604800 s (7 days)'),
+    # the exact figures (%g printed "totals 604800 s ... at most 604800 s")
+    (dict(duration_s=[MAX_PLAN_S, 0.5]),
+     'duration_s totals 604800.5 s, which is invalid: a plan is at most 604800 s (7 days)'),
+    (dict(duration_s=[MAX_PLAN_S, 1e-6]),
+     'duration_s totals 604800.000001 s, which is invalid: a plan is at most 604800 s (7 days)'),
+    (dict(duration_s=[1e308, 1e308]),   # a total beyond floats (was an OverflowError)
+     'duration_s totals inf s, which is invalid: a plan is at most 604800 s (7 days)'),
+    (dict(duration_s=[1.0] * 10, power_w=[0.0] * (MAX_SEGMENTS + 1)),
+     'power_w has 100001 entries, which is invalid: a plan has at most 100000 segments (a day at one-second '
+     'resolution)'),
+    (dict(duration_s=[1, 2], current_a=[0, True]), 'current_a[1] = True is invalid: must be a number of amperes >= 0 '
+     '(a load)'),
     (dict(duration_s=[1], current_a=[-0.5]),
      'current_a[0] = -0.5 is invalid: must be a number of amperes >= 0 (a load)'),
     (dict(duration_s=[1, 1], power_w=[5, NAN]), 'power_w[1] = nan is invalid: must be a number of watts >= 0 (a load)'),
@@ -65,6 +77,12 @@ def test_bad_arrays_name_the_field_the_index_and_what_is_allowed(arrays, message
     with pytest.raises(PredictionError) as error:
         plan_from_arrays(**arrays)
     assert str(error.value) == message
+
+
+def test_a_plan_may_have_max_segments_a_day_at_one_second_resolution():
+    plan = plan_from_arrays(duration_s=[1.0] * MAX_SEGMENTS, current_a=[0.5] * MAX_SEGMENTS)
+    assert MAX_SEGMENTS >= 86400 and len(plan) == MAX_SEGMENTS and plan[-1] == Segment(1.0, 0.5)
+    assert plan_from_arrays(duration_s=[2, 3]) == (Segment(2.0), Segment(3.0)), 'whole numbers are numbers'
 
 
 def test_empty_arrays_count_as_zeros_and_signed_motion_counts_as_cmd_vel_does():
@@ -81,8 +99,8 @@ def test_empty_arrays_count_as_zeros_and_signed_motion_counts_as_cmd_vel_does():
      'pack can deliver)'),
     (Segment(60, power_w=200.0, speed_mps=2.0), NAN, 'power_w[0] + the motion of speed_mps[0] and turn_radps[0] = '
      '300.0 is invalid: must be a number in [0, 252] W (the most the pack can deliver)'),
-    (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (NaN: no charge)'),
-    (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (NaN: no charge)'),
+    (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
+    (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
 ])
 def test_loads_beyond_the_pack_and_bad_levels_are_refused(segment, charge_to, message):
     with pytest.raises(PredictionError) as error:
@@ -198,6 +216,13 @@ def test_charge_edge_cases():
     assert 'never' in result.summary()
 
 
+def test_charge_to_percentage_0_the_message_default_means_no_charge_as_nan():
+    result = predict(pack(50), [Segment(600)], 0.0)
+    assert math.isnan(result.charge_time_s), 'was "charged in 0 s"'
+    assert 'charged' not in result.summary()
+    assert repr(result) == repr(predict(pack(50), [Segment(600)], NAN))
+
+
 def test_segments_run_discharging_even_on_the_charger():
     docked = predict(pack(70, Mode.CHARGE), [Segment(600)])
     assert docked.end_percentage == pytest.approx(predict(pack(70), [Segment(600)]).end_percentage, abs=1e-9)
@@ -266,3 +291,27 @@ def test_neighbouring_segments_of_one_load_are_one_segment():
     split = predict(model, plan_from_arrays([1.0] * 3600, [0.5] * 3600, [], [0.2] * 3600, [-0.1] * 3600))
     whole = predict(model, plan_from_arrays([3600.0], [0.5], [], [0.2], [0.1]))
     assert split == whole
+
+
+@pytest.mark.parametrize('start, params, power_w, feasible', [
+    (90, PACK, 25.0, True), (60, preset('lg_hg2_7s4p'), 150.0, True),
+    (3, PACK, 5.0, False),    # cut off at 67 s: in the first checkpoint's segments
+    (8, PACK, 25.0, False),   # at 152 s: the third's
+])
+def test_one_step_per_short_segment_gives_what_the_careful_steps_give_and_finds_the_cut_off_alike(start, params,
+                                                                                                  power_w, feasible):
+    """Segments of one second or less go in one step each (no look at the current before); a cut-off among
+    them is redone from the last checkpoint with the careful steps (those an ``observe`` always gets)."""
+    count = 3 * CHECKPOINT_SEGMENTS + 17
+    arrays = dict(duration_s=[(0.5, 1.0, 0.25)[k % 3] for k in range(count)] + [600.0, 1.0],
+                  current_a=[0.2 * (k % 4) for k in range(count)] + [0.5, 0.0],
+                  power_w=[power_w * ((k * 37) % 11) / 10.0 for k in range(count)] + [0.0, 1.0],
+                  speed_mps=[0.3 * (k % 2) for k in range(count)] + [0.0, 0.0], turn_radps=[0.0] * (count + 2))
+    plan = plan_from_arrays(**arrays)
+    model = BatteryModel(params, start / 100.0)
+    fast = predict(model, plan, 90.0)
+    careful = predict(model, plan, 90.0, observe=lambda time_s, m: None)
+    assert fast.feasible == careful.feasible == feasible
+    for name in ('end_percentage', 'end_voltage_v', 'min_voltage_v', 'max_temperature_c', 'cut_off_at_s',
+                 'charge_time_s'):
+        assert getattr(fast, name) == pytest.approx(getattr(careful, name), rel=1e-9, abs=1e-9, nan_ok=True), name

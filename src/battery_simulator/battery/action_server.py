@@ -38,7 +38,8 @@ act on the model through the same lock.
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
   - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): core/names.py FAULTS
   - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after
-    it) would do, from a copy of the model (core/prediction.py); changes nothing, so it replies at once
+    it) would do, from a copy of the model (core/prediction.py), computed in the process's prediction
+    workers (prediction_service.py); changes nothing, so it replies once computed
   Each other service (and dynamic_reconfigure) replies once battery_state_pub has sent the
   state it changed on battery_status (publish_now, acknowledged on status_sent; without
   a battery_state_pub, once it is published), so the next battery_status shows the change.
@@ -55,16 +56,16 @@ from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, UInt64
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
+from battery_simulator.battery import prediction_service
 from battery_simulator.battery.battery_state import SimState
 from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.saved_state import StateStore
 from battery_simulator.battery.workers import StatusTimer, UpdateLoop
 from battery_simulator.cfg import BatterySimConfig
-from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery, BatteryError, Goal,
-                                            GoalEnd, noisy_current, noisy_voltage)
+from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, MOTION_LOAD, UNREADABLE, Battery,
+                                            BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage)
 from battery_simulator.core.battery_model import Mode
 from battery_simulator.core.parameters import ParameterError, load_yaml
-from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
 from battery_simulator.core.settings import BATTERY_SETTINGS
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros import topics
@@ -72,8 +73,8 @@ from battery_simulator.ros.cached_param import CachedParam
 from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, clock_publishers,
                                            exit_on_startup_error, init_node, read_private_settings, signals_held,
                                            wait_for_rosout)
-from battery_simulator.srv import (InjectFault, InjectFaultResponse, Predict, PredictResponse, SetLoad,
-                                   SetLoadResponse, SetState, SetStateResponse)
+from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
+                                   SetStateResponse)
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
@@ -189,7 +190,7 @@ class BatterySimServer:
             rospy.Service(ns + topics.SET_STATE, SetState, self._set_state),
             rospy.Service(ns + topics.RESET, Trigger, self._reset),
             rospy.Service(ns + topics.INJECT_FAULT, InjectFault, self._inject_fault),
-            rospy.Service(ns + topics.PREDICT, Predict, self._predict),
+            prediction_service.advertise(ns + topics.PREDICT, self._predict),
         ]
         self._publish_state(self.battery.record())
         self._server.start()
@@ -408,19 +409,11 @@ class BatterySimServer:
         return self._service(InjectFaultResponse, lambda: self.battery.inject_fault(request.fault, request.active))
 
     def _predict(self, request):
-        """What the request's plan would do, from a copy of the model brought to now (changes nothing)."""
-        try:
-            segments = plan_from_arrays(request.duration_s, request.current_a, request.power_w,
-                                        request.speed_mps, request.turn_radps)
-            result = predict(self.battery.model_for_prediction(), segments, request.charge_to_percentage)
-        except PredictionError as error:
-            nan = math.nan
-            return PredictResponse(success=False, message=str(error), end_percentage=nan, end_voltage_v=nan,
-                                   min_voltage_v=nan, max_temperature_c=nan, cut_off_at_s=nan, charge_time_s=nan)
-        return PredictResponse(success=True, message=result.summary(), feasible=result.feasible,
-                               end_percentage=result.end_percentage, end_voltage_v=result.end_voltage_v,
-                               min_voltage_v=result.min_voltage_v, max_temperature_c=result.max_temperature_c,
-                               cut_off_at_s=result.cut_off_at_s, charge_time_s=result.charge_time_s)
+        """What the request's plan would do, from a copy of the model taken under the lock, computed in the
+        process's prediction workers (prediction_service.py): the copy is brought to now at its present
+        loads, and the plan's motion takes the place of cmd_vel's. Changes nothing."""
+        model, behind_s = self.battery.model_for_prediction_pickled()
+        return prediction_service.answer(self._ns, request, model, behind_s, dropped_loads=(MOTION_LOAD,))
 
     def _reconfigure_callback(self, config, level):
         """Apply live changes, validated like the start-up values: a refused value is logged and the old one kept.
