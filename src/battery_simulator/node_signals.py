@@ -17,7 +17,7 @@ import signal
 import sys
 import threading
 
-STOP_GRACE_S = 1.5
+STOP_GRACE_S = 1.2
 #: the executables that are ROS 1 nodes (scripts/): only their processes get these handlers
 NODE_SCRIPTS = ('battery_sim_server.py', 'battery_state_pub.py', 'battery_fleet.py', 'battery_dashboard.py',
                 'battery_dock_contact.py', 'battery_cmd_vel_gate.py', 'fake_base.py', 'patrol_and_dock.py',

@@ -29,7 +29,7 @@ def plant_fault(after_updates):
 
 
 def main():
-    rospy.init_node('BatterySimServer')   # action_server.main() initialises again with the same name
+    rospy.init_node('BatterySimServer', disable_signals=True)   # action_server.main() initialises again, alike
     if not rospy.get_param(PLANTED_PARAM, False):
         plant_fault(int(rospy.get_param('~planted_after_updates', 30)))
     action_server.main()

@@ -243,9 +243,16 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         self.hub.model.on_battery(TOPIC, battery(), 1.0)
         return app.make_app(self.hub, '127.0.0.1', self.get_http_port())
 
+    def get_httpserver_options(self):
+        return app.server_options()   # as the node listens
+
     def _call(self, *arguments):
         self.calls.append(arguments)
-        return True, 'done'
+        if arguments[2].get('state_of_health') == 0.001:   # as the simulator refuses it
+            return app.SERVICE_REFUSED, 'state_of_health = 0.001 is invalid: must be in [0.01, 1]'
+        if arguments[2].get('percentage') == 99:
+            return app.SERVICE_UNREACHABLE, '/robot3/battery_simulator/set_state: timeout'
+        return app.SERVICE_OK, 'done'
 
     def host(self):
         return '127.0.0.1:%d' % self.get_http_port()
@@ -301,6 +308,35 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert self.calls == []
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 15}).code == 200
         assert self.calls[0][:2] == (TOPIC, 'set_state') and self.calls[0][2]['percentage'] == 15.0
+        refused = post({'topic': TOPIC, 'action': 'set_state', 'state_of_health': 0.001})
+        assert refused.code == 422, 'a value the service refuses is the user\'s error (4xx), not a 502'
+        assert 'state_of_health = 0.001 is invalid' in json.loads(refused.body)['message']
+        assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 99}).code == 502, 'a service gone: 502'
+
+    def test_a_huge_query_string_gets_414(self):
+        response = self.fetch('/battery?topic=' + 'x' * 100000, headers={'Host': self.host()})
+        assert response.code == 414, response.code
+
+    def test_refused_requests_are_said_at_most_every_10_s(self):
+        lines, now = [], [0.0]
+        log = app.RequestLog(lines.append, clock=lambda: now[0])
+
+        class Handler:
+            def __init__(self, status):
+                self.request = type('R', (), {'method': 'GET', 'uri': '/', 'headers': {'Host': 'evil'}})()
+                self._status = status
+
+            def get_status(self):
+                return self._status
+        for _ in range(81):
+            log(Handler(403))
+        assert len(lines) == 1, lines
+        now[0] = 10.5
+        log(Handler(403))
+        assert len(lines) == 2 and 'refused 81 request' in lines[1], lines
+        log(Handler(200))
+        log(Handler(500))
+        assert len(lines) == 3 and lines[2].startswith('500 GET')
 
 
 def test_a_stalled_page_is_closed_rather_than_buffered_for():
@@ -321,3 +357,27 @@ def test_a_stalled_page_is_closed_rather_than_buffered_for():
     assert not closed
     socket.send('{}')                         # a whole minute of pushes unsent: closed, no longer pushed to
     assert closed == [1013] and socket not in hub.pages
+
+
+def test_numbers_no_one_can_read_are_shown_short_and_marked():
+    assert model.number_text(3.4e38, 2, 'V', model.PLAUSIBLE['voltage']) == '3.4e+38 V (out of range)'
+    assert model.percentage_text(-1e9) == '-1e+11 % (out of range)'
+    assert model.percentage_text(0.632) == '63.2 %' and model.number_text(12.31, 2, 'V') == '12.31 V'
+    record = model.BatteryRecord('/r/battery_status', 0.0)
+    record.on_battery(battery(percentage=-1e9, voltage=3.4e38), 1.0, 1.0)
+    view = record.view(1.0)
+    assert view['out_of_range'] == ['percentage', 'voltage'], view['out_of_range']
+    assert max(len(text) for text in view['fields'].values()) < 30, view['fields']
+
+
+def test_a_silent_but_advertised_topic_stays_away_once_dropped():
+    dashboard = model.DashboardModel(history_s=60.0)
+    dashboard.add(TOPIC, 0.0)
+    dashboard.on_battery(TOPIC, battery(), 1.0)
+    dashboard.tick(100.0)                           # silent for longer than history_s: dropped
+    assert TOPIC not in dashboard.records
+    dashboard.add(TOPIC, 102.0)                     # the next scan finds it still advertised
+    changed, _ = dashboard.tick(103.0)
+    assert TOPIC not in dashboard.records and not changed, 'it came back as fresh without a message'
+    dashboard.on_battery(TOPIC, battery(), 104.0)   # a message brings it back
+    assert TOPIC in dashboard.records and not dashboard.records[TOPIC].stale(104.5)

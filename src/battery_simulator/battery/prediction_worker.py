@@ -15,9 +15,10 @@ of ROS imported there):
     the refusal's message. It runs at a lower priority (nice +NICE) than the
     batteries.
   - It ends with its parent: at the socket's end of file, and while it
-    computes when its parent changes (checked every PARENT_CHECK_S). It
-    ignores SIGINT (Ctrl-C reaches the whole process group: the parent ends
-    and the worker follows it); SIGTERM ends it at once, without a traceback.
+    computes when its parent changes (checked every PARENT_CHECK_S). It runs
+    in a session of its own and ignores SIGINT (Ctrl-C to the node's process
+    group never reaches it, even while it starts: the parent ends and the
+    worker follows it); SIGTERM ends it at once, without a traceback.
   - The first worker starts with the pool; a second one (up to ``workers``)
     starts when a job waits while every worker is busy. A robot has at most
     one job in the workers at a time and the robots take turns, so a flood
@@ -329,7 +330,9 @@ class _Lane:
                 env = dict(os.environ, PYTHONPATH=os.pathsep.join(path for path in sys.path if path))
                 self._process = subprocess.Popen(
                     [sys.executable, '-m', __name__, str(child_end.fileno()), str(os.getpid())],
-                    pass_fds=(child_end.fileno(),), stdin=subprocess.DEVNULL, env=env)
+                    pass_fds=(child_end.fileno(),), stdin=subprocess.DEVNULL, env=env,
+                    start_new_session=True)   # Ctrl-C to the node's group never reaches it, even while it
+                    # imports (it follows its parent: end of file on its socket, or the parent gone)
             self._conn = Connection(parent_end.detach())
             self._started_at = time.monotonic()
 

@@ -39,6 +39,11 @@ SECURITY_HEADERS = {
 #: set_state's ranges (srv/SetState.srv); an empty field is NaN: left as it is
 SET_STATE_RANGES = {'percentage': (0.0, 100.0), 'temperature_c': (-60.0, 150.0), 'state_of_health': (0.0, 1.0)}
 CONTROL_ACTIONS = ('set_state', 'set_charging', 'inject_fault')
+#: what a control's service call came to (the hub's call_service returns one with its message)
+SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE = 'ok', 'refused', 'unreachable'
+MAX_URI_BYTES = 8192            # longer: 414 (the server reads headers up to MAX_HEADER_BYTES to say so)
+MAX_HEADER_BYTES = 1024 * 1024
+REFUSED_LOG_PERIOD_S = 10.0
 
 
 # -- the checks (plain functions, unit-tested) -----------------------------------------
@@ -168,15 +173,18 @@ class Hub:
             now = self.clock()
             batteries = self.model.snapshot(now)
         return to_json({'type': 'snapshot', 'now': now, 'history_s': self.model.history_s,
-                        'allow_control': self.allow_control, 'batteries': batteries})
+                        'allow_control': self.allow_control, 'faults': FAULTS, 'batteries': batteries})
 
 
 # -- the handlers -------------------------------------------------------------------------
 
 class _Guard:
-    """403 unless Host (and Origin, if sent) is the dashboard's own address; security headers."""
+    """403 unless Host (and Origin, if sent) is the dashboard's own address; 414 for an absurd URI;
+    security headers."""
 
     def prepare(self):
+        if len(self.request.uri) > MAX_URI_BYTES:
+            raise tornado.web.HTTPError(414, 'the request URI is longer than %d bytes' % MAX_URI_BYTES)
         if not request_allowed(self.request.headers.get('Host'), self.request.headers.get('Origin'),
                                self.settings['own_addresses']):
             raise tornado.web.HTTPError(403, 'Host or Origin is not this dashboard')
@@ -268,9 +276,11 @@ class ControlHandler(ApiHandler):
         if not has_controls:
             self.send_json({'success': False, 'message': 'no simulated battery %s' % topic}, 404)
             return
-        success, message = await tornado.ioloop.IOLoop.current().run_in_executor(
+        outcome, message = await tornado.ioloop.IOLoop.current().run_in_executor(
             None, hub.call_service, topic, action, arguments)
-        self.send_json({'success': success, 'message': message}, 200 if success else 502)
+        # refused: the user's value (4xx, with the service's reason); unreachable: the simulator's side (502)
+        self.send_json({'success': outcome == SERVICE_OK, 'message': message},
+                       {SERVICE_OK: 200, SERVICE_REFUSED: 422}.get(outcome, 502))
 
 
 class LiveSocket(_Guard, tornado.websocket.WebSocketHandler):
@@ -311,8 +321,36 @@ class LiveSocket(_Guard, tornado.websocket.WebSocketHandler):
         self.settings['hub'].pages.discard(self)
 
 
-def make_app(hub, host, port):
-    """The tornado application: pages, static files, Chart.js, the API and /live."""
+class RequestLog:
+    """Tornado's request log: nothing for success, a WARN for a failure, and the refused requests (a
+    foreign Host or Origin, 403) counted and said at most every REFUSED_LOG_PERIOD_S (a probe sends
+    hundreds). ``warn(text)`` writes a line."""
+
+    def __init__(self, warn, clock=time.monotonic):
+        self._warn, self._clock = warn, clock
+        self._refused = 0
+        self._said_at = -REFUSED_LOG_PERIOD_S
+
+    def __call__(self, handler):
+        status = handler.get_status()
+        if status < 400:
+            return
+        request = handler.request
+        if status != 403:
+            self._warn('%d %s %s' % (status, request.method, request.uri[:200]))
+            return
+        self._refused += 1
+        now = self._clock()
+        if now - self._said_at >= REFUSED_LOG_PERIOD_S:
+            self._warn('refused %d request(s) with a foreign Host or Origin (403) in the last %.0f s; last: %s %s '
+                       'Host=%r' % (self._refused, min(now - self._said_at, 1e9), request.method, request.uri[:200],
+                                    request.headers.get('Host')))
+            self._refused, self._said_at = 0, now
+
+
+def make_app(hub, host, port, warn=None):
+    """The tornado application: pages, static files, Chart.js, the API and /live. ``warn(text)``: where
+    failed and refused requests are said (throttled for the refused)."""
     return tornado.web.Application([
         (r'/', PageHandler, {'page': 'index.html'}),
         (r'/battery', PageHandler, {'page': 'battery.html'}),
@@ -323,7 +361,17 @@ def make_app(hub, host, port):
         (r'/api/control', ControlHandler),
         (r'/live', LiveSocket),
     ], hub=hub, own_addresses=own_addresses(host, port), websocket_ping_interval=20,
-        default_handler_class=NotFoundHandler)
+        default_handler_class=NotFoundHandler, log_function=RequestLog(warn or _no_line))
+
+
+def _no_line(text):
+    pass
+
+
+def server_options():
+    """The HTTP server's options: headers up to MAX_HEADER_BYTES are read, so that a longer URI than
+    MAX_URI_BYTES is answered 414 rather than the connection closed without a status."""
+    return {'max_header_size': MAX_HEADER_BYTES}
 
 
 def start_pushing(hub):

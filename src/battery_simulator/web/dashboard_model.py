@@ -10,6 +10,7 @@ import bisect
 import collections
 import math
 
+from battery_simulator.core import names
 from battery_simulator.core.parameters import is_number
 
 BATTERY_TYPE = 'sensor_msgs/BatteryState'
@@ -25,30 +26,46 @@ HISTORY_POINTS = 1200    # at most this many chart points per battery over ~hist
 PERIOD_SAMPLES = 8       # arrival intervals the period estimate takes the median of
 
 #: sensor_msgs/BatteryState.power_supply_status -> the page's status
-SUPPLY_STATUS = {1: 'Charging', 2: 'Discharging', 3: 'Not charging', 4: 'Full'}
-#: BatterySimState.charging_state -> the page's status (the simulator knows Empty)
-SIM_CHARGING_STATE = {'Charging': 'Charging', 'Discharging': 'Discharging', 'Full': 'Full',
-                      'Not Charging': 'Not charging', 'Empty': 'Empty'}
+SUPPLY_STATUS = names.SUPPLY_STATUS_TEXT
+#: BatterySimState.charging_state -> the page's status (the simulator knows Empty): the page writes
+#: "Not charging" as a sentence, the simulator's texts are the diagnostics' "Not Charging"
+SIM_CHARGING_STATE = {state: state.capitalize() for state in names.CHARGING_STATES}
 #: sensor_msgs/BatteryState.power_supply_health
 SUPPLY_HEALTH = {1: 'Good', 2: 'Overheat', 3: 'Dead', 4: 'Overvoltage', 5: 'Unspecified failure', 6: 'Cold',
                  7: 'Watchdog timer expired', 8: 'Safety timer expired'}
 #: the numbers a BatteryState gives (pack units: V, A, degC, Ah; percentage 0..1)
 BATTERY_FIELDS = ('percentage', 'voltage', 'current', 'temperature', 'charge', 'capacity', 'design_capacity')
 CHART_FIELDS = ('percentage', 'voltage', 'current', 'temperature')
-FAULTS = ('charger_fault', 'overheat', 'sensor_dropout', 'measurement_noise')
+#: the faults a simulated battery knows (the page gets them in its snapshot)
+FAULTS = tuple(sorted(names.FAULTS))
 
 
 # -- text ----------------------------------------------------------------------
 
 
-def number_text(value, digits, unit):
-    """'12.31 V'; '-' for NaN, infinity or nothing."""
-    return '%.*f %s' % (digits, value, unit) if is_number(value) else '-'
+#: beyond this magnitude a number is shown in scientific notation (3 significant digits): a driver's
+#: 3.4e38 would otherwise be a 40-digit number overflowing the card
+MAX_FIXED = 1e5
+#: what a battery can plausibly report; a value outside is shown marked "out of range"
+PLAUSIBLE = {'percentage': (0.0, 100.0), 'voltage': (0.0, 1000.0), 'current': (-1000.0, 1000.0),
+             'temperature': (-60.0, 150.0), 'charge': (0.0, 1e4), 'capacity': (0.0, 1e4)}
+OUT_OF_RANGE = ' (out of range)'
+
+
+def number_text(value, digits, unit, plausible=None):
+    """'12.31 V'; '3.4e+38 V' beyond MAX_FIXED; ' (out of range)' appended outside ``plausible``
+    (low, high); '-' for NaN, infinity or nothing."""
+    if not is_number(value):
+        return '-'
+    text = '%.*f %s' % (digits, value, unit) if abs(value) < MAX_FIXED else '%.3g %s' % (value, unit)
+    if plausible is not None and not plausible[0] <= value <= plausible[1]:
+        text += OUT_OF_RANGE
+    return text
 
 
 def percentage_text(fraction):
     """BatteryState.percentage (0..1) as '63.2 %'."""
-    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%')
+    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%', PLAUSIBLE['percentage'])
 
 
 def duration_text(seconds):
@@ -227,15 +244,18 @@ class BatteryRecord:
             'fields': {
                 'percentage': percentage_text(percentage),
                 'status': status,
-                'voltage': number_text(values.get('voltage'), 2, 'V'),
-                'current': number_text(values.get('current'), 2, 'A'),
-                'temperature': number_text(values.get('temperature'), 1, '°C'),
+                'voltage': number_text(values.get('voltage'), 2, 'V', PLAUSIBLE['voltage']),
+                'current': number_text(values.get('current'), 2, 'A', PLAUSIBLE['current']),
+                'temperature': number_text(values.get('temperature'), 1, '°C', PLAUSIBLE['temperature']),
                 'time_remaining': duration_text(remaining),
-                'charge': number_text(values.get('charge'), 2, 'Ah'),
-                'capacity': number_text(values.get('capacity'), 2, 'Ah'),
+                'charge': number_text(values.get('charge'), 2, 'Ah', PLAUSIBLE['charge']),
+                'capacity': number_text(values.get('capacity'), 2, 'Ah', PLAUSIBLE['capacity']),
                 'health': SUPPLY_HEALTH.get(self.power_supply_health, '-'),
             },
             'level': json_number(100.0 * percentage) if is_number(percentage) else None,
+            'out_of_range': sorted(field for field, (low, high) in PLAUSIBLE.items()
+                                   if is_number(values.get(field)) and not low <= (
+                                       100.0 * values[field] if field == 'percentage' else values[field]) <= high),
             'values': {field: json_number(values.get(field)) for field in ('voltage', 'current', 'temperature')},
             'low': low,
             'critical': critical,
@@ -263,6 +283,7 @@ class DashboardModel:
         self._changed = set()
         self._removed = set()
         self._stale = set()
+        self._silenced = set()   # dropped for silence: back only with a message, not by being advertised
 
     def _record(self, topic, now, changed=True):
         record = self.records.get(topic)
@@ -275,7 +296,9 @@ class DashboardModel:
         return record
 
     def add(self, topic, now, has_controls=False):
-        """A battery topic found on the master."""
+        """A battery topic found on the master (one dropped for its silence stays away until it speaks)."""
+        if topic in self._silenced:
+            return
         record = self._record(topic, now, changed=False)
         if record.has_controls != has_controls:
             record.has_controls = has_controls
@@ -283,10 +306,13 @@ class DashboardModel:
 
     def on_battery(self, topic, values, now):
         """A BatteryState as a dict: BATTERY_FIELDS, power_supply_status/health, location, serial_number."""
+        self._silenced.discard(topic)
         self._record(topic, now).on_battery(dict(values), now, self.history_step_s)
 
     def on_level_topic(self, topic, which, active, now):
         """battery_low (which='low') or battery_critical ('critical') of the battery ``topic``."""
+        if topic in self._silenced:
+            return
         setattr(self._record(topic, now), which + '_topic', bool(active))
 
     def on_sim_state(self, topic, sim, now):
@@ -294,6 +320,8 @@ class DashboardModel:
 
         They come with every model update; the page hears of them with the next BatteryState
         unless the state, the faults or the cut-off changed."""
+        if topic in self._silenced:
+            return
         record = self._record(topic, now, changed=False)
         if any(record.sim.get(key) != sim.get(key) for key in ('charging_state', 'active_faults', 'cut_off')):
             self._changed.add(topic)
@@ -301,6 +329,7 @@ class DashboardModel:
 
     def on_fleet(self, topic, host, values, now):
         """One battery of a fleet host's states: names its host; gives a first value before its own topic."""
+        self._silenced.discard(topic)
         record = self._record(topic, now, changed=False)
         if record.host != host:
             record.host = host
@@ -319,6 +348,7 @@ class DashboardModel:
             last = record.last_message if record.last_message is not None else record.discovered
             if now - last > self.history_s:
                 del self.records[topic]
+                self._silenced.add(topic)
                 self._changed.discard(topic)
                 self._removed.add(topic)
                 self._stale.discard(topic)

@@ -23,6 +23,7 @@ callbacks write the model under the hub's lock; the web thread reads it.
 import errno
 import logging
 import math
+import os
 import threading
 import time
 
@@ -37,7 +38,8 @@ from battery_simulator.ros import topics
 from battery_simulator.ros.startup import (StartupError, checked_param, exit_on_startup_error, init_node, is_number,
                                            signals_held)
 from battery_simulator.srv import InjectFault, SetState
-from battery_simulator.web.dashboard_app import Hub, make_app, start_pushing
+from battery_simulator.web.dashboard_app import (CHART_JS_DIR, SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
+                                                make_app, server_options, start_pushing)
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover, fleet_battery_topic, namespace_of
 
 SERVICE_TIMEOUT_S = 2.0
@@ -145,7 +147,8 @@ class BatteryDashboard:
 
     # -- controls (a web worker thread)
     def call_service(self, battery, action, arguments):
-        """Call one of the three services of the battery's simulator; (success, message)."""
+        """Call one of the three services of the battery's simulator; (SERVICE_OK, SERVICE_REFUSED or
+        SERVICE_UNREACHABLE, message)."""
         relative, service_type = SERVICES[action]
         name = namespace_of(battery) + relative
         try:
@@ -158,10 +161,10 @@ class BatteryDashboard:
             else:
                 response = proxy(arguments['fault'], arguments['active'])
         except (rospy.ROSException, rospy.ServiceException) as error:
-            return False, '%s: %s' % (name, error)
+            return SERVICE_UNREACHABLE, '%s: %s' % (name, error)
         rospy.loginfo('battery_dashboard: %s %s -> %s %s', name, _shown(arguments), response.success,
                       response.message)
-        return response.success, response.message
+        return (SERVICE_OK if response.success else SERVICE_REFUSED), response.message
 
 
 def _shown(arguments):
@@ -182,7 +185,7 @@ def main():
         logger = logging.getLogger(name)
         logger.addHandler(_ToRosLog(logging.WARNING))
         logger.propagate = False
-    logging.getLogger('tornado.access').setLevel(logging.WARNING)   # not a line per request
+    logging.getLogger('tornado.access').setLevel(logging.CRITICAL)   # RequestLog says what matters
     with signals_held():
         settings = init_node('battery_dashboard', read_settings)
         hub = Hub(settings['history_s'], settings['allow_control'])
@@ -190,7 +193,11 @@ def main():
         hub.call_service = node.call_service if settings['allow_control'] else None
         loop = tornado.ioloop.IOLoop.current()
         try:
-            make_app(hub, settings['host'], settings['port']).listen(settings['port'], address=settings['host'])
+            make_app(hub, settings['host'], settings['port'], warn=lambda text: rospy.logwarn('battery_dashboard: %s', text)
+                     ).listen(settings['port'], address=settings['host'], **server_options())
+            if not os.path.isdir(CHART_JS_DIR):
+                rospy.logwarn('battery_dashboard: the chart library is missing (%s; Debian package libjs-chart.js): '
+                              'the battery pages say so instead of drawing charts', CHART_JS_DIR)
         except OSError as error:
             if error.errno == errno.EADDRINUSE:
                 problem = 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (

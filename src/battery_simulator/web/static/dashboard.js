@@ -4,7 +4,7 @@
 'use strict';
 
 const FIELDS = ['percentage', 'status', 'voltage', 'current', 'temperature', 'time_remaining'];
-const FAULT_NAMES = ['charger_fault', 'overheat', 'sensor_dropout', 'measurement_noise'];
+let faultNames = [];   // the simulator's faults, from the server's snapshot (core/names.py)
 const CHART_FIELDS = {percentage: '#2e7d32', voltage: '#1565c0', current: '#6a1b9a', temperature: '#e65100'};
 
 // The server's clock against ours: ages are shown from the server's own times.
@@ -56,9 +56,12 @@ function showLevel(root, battery) {
 }
 
 function showFields(root, battery) {
+  const outOfRange = battery.out_of_range || [];
   for (const field of FIELDS) {
     const node = root.querySelector('[data-field="' + field + '"]');
-    if (node && node.textContent !== battery.fields[field]) node.textContent = battery.fields[field];
+    if (!node) continue;
+    if (node.textContent !== battery.fields[field]) node.textContent = battery.fields[field];
+    node.classList.toggle('out-of-range', outOfRange.includes(field));   // the text says "(out of range)" too
   }
 }
 
@@ -179,7 +182,16 @@ function batteryPage() {
   const charts = {};
   window.batteryCharts = charts;   // for tests and the curious: the Chart.js instances
 
-  for (const [field, colour] of Object.entries(CHART_FIELDS)) {
+  const chartLibrary = typeof Chart !== 'undefined';
+  if (!chartLibrary) {   // the distribution's chart library is missing: say so where the charts would be
+    for (const canvas of document.querySelectorAll('canvas[data-chart]')) {
+      const note = element('p', 'chart-missing', 'No chart: the chart library is missing (install the Debian '
+                           + 'package libjs-chart.js, which puts it in /usr/share/javascript/chart.js).');
+      note.dataset.chartMissing = canvas.dataset.chart;
+      canvas.replaceWith(note);
+    }
+  }
+  for (const [field, colour] of Object.entries(chartLibrary ? CHART_FIELDS : {})) {
     const canvas = document.querySelector('canvas[data-chart="' + field + '"]');
     charts[field] = new Chart(canvas, {
       type: 'line',
@@ -210,7 +222,7 @@ function batteryPage() {
   }
 
   function addPoint(t, values) {
-    for (const field of Object.keys(CHART_FIELDS)) {
+    for (const field of Object.keys(charts)) {
       const y = values[field];
       charts[field].data.datasets[0].data.push({x: t, y: y === null || y === undefined ? NaN : y});
     }
@@ -288,8 +300,14 @@ function batteryPage() {
     for (const button of document.querySelectorAll('button[data-control="set_charging"]')) {
       button.addEventListener('click', () => control({action: 'set_charging', charging: button.dataset.charging === 'true'}));
     }
+  }
+
+  // One button per fault the simulator knows (the server's snapshot lists them: core/names.py).
+  function makeFaultButtons() {
     const faults = document.getElementById('faults');
-    for (const fault of FAULT_NAMES) {
+    if (!faults || faults.dataset.made) return;   // a read-only page has no controls
+    faults.dataset.made = 'true';
+    for (const fault of faultNames) {
       const button = element('button', 'fault', 'Inject ' + fault.replace('_', ' '));
       button.type = 'button';
       button.dataset.fault = fault;
@@ -327,6 +345,8 @@ function batteryPage() {
     if (message.type === 'snapshot') {
       historyS = message.history_s;
       controlsOn = message.allow_control;
+      faultNames = message.faults || [];
+      makeFaultButtons();
       const battery = message.batteries.find((b) => b.topic === topic);
       if (battery) showDetail(battery);
       else { document.getElementById('missing').hidden = false; }
