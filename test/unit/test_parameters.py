@@ -33,7 +33,9 @@ def test_every_parameter_has_a_unit_or_is_a_count_or_text():
     unitless = {'name', 'cells_series', 'cells_parallel', 'ocv_soc', 'coulombic_efficiency',
                 'capacity_fade_per_cycle', 'initial_cycle_count', 'location', 'serial_number', 'source',
                 'resistance_soc', 'r0_soc_factor', 'r1_soc_factor', 'r_fast_soc_factor', 'r0_charge_factor',
-                'r1_charge_factor', 'r_fast_charge_factor'}
+                'r1_charge_factor', 'r_fast_charge_factor',
+                # Part 5: relative spreads, a seed, and mappings whose keys carry their units
+                'capacity_spread', 'resistance_spread', 'spread_seed', 'groups', 'balancing', 'gauge'}
     for name in PARAMETER_NAMES:
         assert name in unitless or name.endswith(units), name
 

@@ -26,6 +26,7 @@ import math
 from bisect import bisect_right
 from collections import namedtuple
 
+from battery_simulator.core.gauge import make_gauge
 from battery_simulator.core.parameters import BatteryParameters, is_number
 
 _KELVIN = 273.15
@@ -67,6 +68,8 @@ PROTECTION_HYSTERESIS_K = 5.0
 #: saved-state keys added with the fast RC pair and the OCV hysteresis (issue 25),
 #: with the values a state saved before them resumes with
 SINCE_TWO_RC = {'fast_rc_voltage_v': 0.0, 'hysteresis': -1.0}
+#: saved-state keys only some packs have: the gauge's belief, the groups' own states
+OPTIONAL_SAVED = ('gauge_soc', 'groups')
 
 
 class Health(enum.Enum):
@@ -78,10 +81,14 @@ class Health(enum.Enum):
 
 
 #: A consistent picture of the pack at one instant, in pack units.
+#: ``percentage``, ``charge_ah`` and ``capacity_ah`` are the fuel gauge's view (what a robot reads: the
+#: truth with an ideal gauge); ``true_percentage`` is the truth. ``cell_voltage_v`` is the mean cell,
+#: ``cell_voltages_v`` and ``cell_temperatures_c`` one per series group.
 Snapshot = namedtuple('Snapshot', (
     'percentage', 'voltage_v', 'current_a', 'temperature_c', 'charge_ah',
     'capacity_ah', 'design_capacity_ah', 'cell_voltage_v', 'mode', 'status',
-    'health', 'cycle_count', 'state_of_health', 'cut_off', 'time_remaining_s', 'charger_fault'))
+    'health', 'cycle_count', 'state_of_health', 'cut_off', 'time_remaining_s', 'charger_fault',
+    'true_percentage', 'cell_voltages_v', 'cell_temperatures_c'))
 
 
 class OcvCurve:
@@ -190,7 +197,19 @@ MIN_STATE_OF_HEALTH = 0.01
 
 
 class BatteryModel:
-    """A Li-ion pack: step it with ``step(dt_s)``, read it with ``snapshot()``."""
+    """A Li-ion pack: step it with ``step(dt_s)``, read it with ``snapshot()``.
+
+    Lumped (every series group alike: one cell's equations times the pack), or, when the config gives
+    a spread, groups or balancing, a pack of differing groups (core/pack.py's GroupedPack, which this
+    constructor returns then). Either way a fuel gauge (core/gauge.py) may stand between the truth
+    and what the snapshot's percentage says.
+    """
+
+    def __new__(cls, params=None, *args, **kwargs):
+        if cls is BatteryModel and params is not None and params.has_groups:
+            from battery_simulator.core.pack import GroupedPack
+            cls = GroupedPack
+        return super().__new__(cls)
 
     def __init__(self, params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
         params = params if params is not None else BatteryParameters()
@@ -224,7 +243,10 @@ class BatteryModel:
         self._extra_current_a = 0.0
         self._extra_power_w = 0.0
         self._capacity_as = 0.0       # usable capacity per cell, A*s
+        self.throughput_as = 0.0      # charge through a cell since start, A*s (signed: the gauge counts it)
+        self._stuck = None            # (percentage, charge) the gauge_stuck fault holds, or None
         self._update_capacity()
+        self.gauge = make_gauge(params.gauge, params.design_capacity_ah, self.state_of_charge)
         self._settle_status()
         self.step(0.0)
 
@@ -252,12 +274,24 @@ class BatteryModel:
         self._settle_status()
         self.step(0.0)
 
-    def set_state(self, state_of_charge=None, temperature_c=None, state_of_health=None):
+    def set_state(self, state_of_charge=None, temperature_c=None, state_of_health=None, gauge_error=None):
         """Put the pack where a test needs it; None leaves a value as it is.
 
         Raises ValueError (nothing changed) for a value out of range. The RC
         pairs are left settled, as after a long rest (the OCV stays on its branch).
+        A state of charge sets the gauge there too; ``gauge_error`` (percentage
+        points) is then added to the gauge (a coulomb counter's only).
         """
+        if gauge_error is not None:
+            if self.gauge is None:
+                raise ValueError('gauge_error = %r is invalid: this pack\'s gauge is ideal (it reads the truth); '
+                                 'give the config gauge: {model: coulomb_counter}' % (gauge_error,))
+            if not is_number(gauge_error):
+                raise ValueError('gauge_error = %r is invalid: must be a number of percentage points' % (gauge_error,))
+            soc = self.gauge.soc if state_of_charge is None or not is_number(state_of_charge) else state_of_charge
+            if not 0.0 <= soc + gauge_error / 100.0 <= 1.0:
+                raise ValueError('gauge_error = %r is invalid: it puts the gauge at %.1f %%: the percentage must '
+                                 'stay in [0, 100]' % (gauge_error, 100.0 * soc + gauge_error))
         if state_of_charge is not None:
             _check_fraction('state_of_charge', state_of_charge)
         if temperature_c is not None and not (is_number(temperature_c) and -60.0 <= temperature_c <= 150.0):
@@ -277,15 +311,23 @@ class BatteryModel:
             self.state_of_health = float(state_of_health)
             self._update_capacity()
         self.cut_off = None
+        if self.gauge is not None:
+            if state_of_charge is not None:
+                self.gauge.soc = float(state_of_charge)
+            if gauge_error is not None:
+                self.gauge.add_error(gauge_error)
         self._settle_status()
         self.step(0.0)
 
     def export_state(self):
         """The state that survives a restart, as plain numbers (see restore_state)."""
-        return {'state_of_charge': self.state_of_charge, 'rc_voltage_v': self.rc_voltage_v,
-                'fast_rc_voltage_v': self.fast_rc_voltage_v, 'hysteresis': self.hysteresis,
-                'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
-                'state_of_health': self.state_of_health}
+        state = {'state_of_charge': self.state_of_charge, 'rc_voltage_v': self.rc_voltage_v,
+                 'fast_rc_voltage_v': self.fast_rc_voltage_v, 'hysteresis': self.hysteresis,
+                 'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
+                 'state_of_health': self.state_of_health}
+        if self.gauge is not None:
+            state['gauge_soc'] = self.gauge.soc
+        return state
 
     def restore_state(self, saved):
         """Resume from ``export_state()`` output; ValueError (nothing changed) if it does not fit.
@@ -293,10 +335,12 @@ class BatteryModel:
         A state saved by the single-RC model (no SINCE_TWO_RC keys) resumes with
         the fast pair settled and the OCV on its discharge branch.
         """
-        keys = set(self.export_state())
-        if not isinstance(saved, dict) or set(saved) not in (keys, keys - set(SINCE_TWO_RC)):
+        keys = set(BatteryModel.export_state(self)) - set(OPTIONAL_SAVED)
+        if not isinstance(saved, dict) or set(saved) - set(OPTIONAL_SAVED) not in (keys, keys - set(SINCE_TWO_RC)):
             raise ValueError('saved state %r is invalid: must have exactly %s (%s may be missing)'
                              % (saved, ', '.join(sorted(keys)), ', '.join(SINCE_TWO_RC)))
+        optional = {key: saved[key] for key in OPTIONAL_SAVED if key in saved}
+        saved = {key: value for key, value in saved.items() if key not in OPTIONAL_SAVED}
         values = dict(SINCE_TWO_RC, **saved)
         if not all(is_number(v) for v in values.values()) or values['discharged_ah'] < 0 \
                 or abs(values['rc_voltage_v']) > 1.0 or abs(values['fast_rc_voltage_v']) > 1.0 \
@@ -307,13 +351,36 @@ class BatteryModel:
         self.fast_rc_voltage_v = float(values['fast_rc_voltage_v'])
         self.hysteresis = float(values['hysteresis'])
         self.discharged_ah = float(values['discharged_ah'])
+        if self.gauge is not None and is_number(optional.get('gauge_soc')) and 0.0 <= optional['gauge_soc'] <= 1.0:
+            self.gauge.soc = float(optional['gauge_soc'])   # else the gauge starts at the truth
+        self._restore_groups(optional.get('groups'))
         self._settle_status()
         self.step(0.0)
+
+    def _restore_groups(self, saved_groups):
+        """A pack of groups takes its groups' saved states (a lumped pack has none)."""
+        return
 
     # -- the update -----------------------------------------------------------
 
     def step(self, dt_s, current_a=None, power_w=None):
-        """Advance by ``dt_s`` seconds.
+        """Advance by ``dt_s`` seconds (see _step_truth); the gauge counts what its sensor saw."""
+        gauge = self.gauge
+        if gauge is None:
+            self._step_truth(dt_s, current_a, power_w)
+            return
+        throughput, status = self.throughput_as, self.status
+        self._step_truth(dt_s, current_a, power_w)
+        if dt_s > 0.0:
+            gauge.count((self.throughput_as - throughput) * self.params.cells_parallel, dt_s)
+        if self.status is not status:
+            if self.status is Status.FULL:
+                gauge.on_full()
+            elif self.status is Status.EMPTY and self.cut_off is CutOff.UNDER_VOLTAGE:
+                gauge.on_empty()
+
+    def _step_truth(self, dt_s, current_a=None, power_w=None):
+        """Advance the pack itself by ``dt_s`` seconds.
 
         Without arguments the mode decides the current. ``current_a`` (A) or
         ``power_w`` (W) per pack replaces it for this step: positive charges
@@ -341,11 +408,13 @@ class BatteryModel:
 
     def _state(self):
         return (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
-                self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as)
+                self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as,
+                self.throughput_as)
 
     def _restore(self, state):
         (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
-         self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as) = state
+         self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as,
+         self.throughput_as) = state
 
     def _trip(self):
         """The CutOff the pack protection would act on now, or None."""
@@ -435,6 +504,7 @@ class BatteryModel:
             for_current, hysteresis = self._hysteresis_for
             self.hysteresis = hysteresis if for_current == current else self._hysteresis_after(current, dt_s)
         self.cell_current_a = current
+        self.throughput_as += current * dt_s
         if current < 0.0:
             discharged_ah = -current * dt_s / 3600.0
             self.discharged_ah += discharged_ah
@@ -675,16 +745,35 @@ class BatteryModel:
             return Health.COLD
         return Health.GOOD
 
+    def gauge_reading(self):
+        """(percentage, charge Ah, capacity Ah) as the gauge reads them (the truth with an ideal gauge)."""
+        if self._stuck is not None:
+            return self._stuck
+        if self.gauge is None:
+            capacity = self.capacity_ah
+            return 100.0 * self.state_of_charge, self.state_of_charge * capacity, capacity
+        return 100.0 * self.gauge.soc, self.gauge.charge_ah, self.gauge.capacity_ah
+
+    def cell_readings(self):
+        """(voltages, temperatures) of the series groups: all alike in a lumped pack."""
+        series = self.params.cells_series
+        return (self.cell_voltage_v,) * series, (self.temperature_c,) * series
+
+    def set_gauge_stuck(self, active):
+        """The gauge_stuck fault: the reported percentage and charge freeze (the truth moves on)."""
+        self._stuck = self.gauge_reading() if active else None
+
     def snapshot(self):
         """All outputs at this instant, in pack units."""
         cell_v = self.cell_voltage_v
-        capacity = self.capacity_ah
+        percentage, charge, capacity = self.gauge_reading()
+        cell_voltages, cell_temperatures = self.cell_readings()
         return Snapshot(
-            percentage=100.0 * self.state_of_charge,
+            percentage=percentage,
             voltage_v=cell_v * self.params.cells_series,
             current_a=self.current_a,
             temperature_c=self.temperature_c,
-            charge_ah=self.state_of_charge * capacity,
+            charge_ah=charge,
             capacity_ah=capacity,
             design_capacity_ah=self.params.design_capacity_ah,
             cell_voltage_v=cell_v,
@@ -696,6 +785,9 @@ class BatteryModel:
             cut_off=self.cut_off,
             time_remaining_s=self.time_remaining_s,
             charger_fault=self.charger_fault,
+            true_percentage=100.0 * self.state_of_charge,
+            cell_voltages_v=cell_voltages,
+            cell_temperatures_c=cell_temperatures,
         )
 
 

@@ -146,6 +146,21 @@ class BatteryParameters:
     serial_number: str = ''
     #: where the numbers come from
     source: str = ''
+    #: a pack of differing cells (Part 5): relative standard deviation of the series groups' capacity and
+    #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model)
+    capacity_spread: float = 0.0
+    resistance_spread: float = 0.0
+    spread_seed: int = 0
+    #: or each group given: ({capacity_factor, resistance_factor, initial_soc_offset}, ...), cells_series long
+    groups: tuple = ()
+    #: passive balancing {current_a, start_voltage_v, threshold_v} (per group; None: no balancing)
+    balancing: dict = None
+    #: the diagnostics warn when the cell voltages differ by more than this, V
+    imbalance_warn_v: float = 0.05
+    #: the fuel gauge: None or {model: ideal} (the percentage is the truth) or {model: coulomb_counter,
+    #: current_offset_a, current_gain_error, capacity_error, initial_error, recalibrate_at_full,
+    #: recalibrate_at_empty}
+    gauge: dict = None
 
     def __post_init__(self):
         validate(self)
@@ -169,6 +184,11 @@ class BatteryParameters:
     def motion_power_w(self, speed_mps, turn_radps):
         """The motion load of a robot driving at ``speed_mps`` and turning at ``turn_radps`` (either sign), W."""
         return self.drive_power_w_per_mps * abs(speed_mps) + self.turn_power_w_per_radps * abs(turn_radps)
+
+    @property
+    def has_groups(self):
+        """Whether the pack is modelled group by group (a spread, given groups or balancing)."""
+        return bool(self.capacity_spread or self.resistance_spread or self.groups or self.balancing)
 
     @property
     def pack_termination_current_a(self):
@@ -269,6 +289,73 @@ def validate(params):
         _fail('overheat_temperature_c', params.overheat_temperature_c,
               'at most protection_temperature_c (%g degC)' % params.protection_temperature_c)
     _validate_currents(params)
+    _validate_pack(params)
+    _validate_gauge(params)
+
+
+GROUP_KEYS = ('capacity_factor', 'resistance_factor', 'initial_soc_offset')
+BALANCING_KEYS = ('current_a', 'start_voltage_v', 'threshold_v')
+GAUGE_KEYS = ('model', 'current_offset_a', 'current_gain_error', 'capacity_error', 'initial_error',
+              'recalibrate_at_full', 'recalibrate_at_empty')
+GAUGE_MODELS = ('ideal', 'coulomb_counter')
+
+
+def _validate_pack(params):
+    """The groups of a pack of differing cells, and its balancing."""
+    for name in ('capacity_spread', 'resistance_spread'):
+        value = getattr(params, name)
+        if not (is_number(value) and 0.0 <= value < 1.0):
+            _fail(name, value, 'a relative standard deviation in [0, 1)')
+    if not (isinstance(params.spread_seed, int) and not isinstance(params.spread_seed, bool)):
+        _fail('spread_seed', params.spread_seed, 'a whole number')
+    if not isinstance(params.groups, (tuple, list)):
+        _fail('groups', params.groups, 'a list of {%s}, one per series group' % ', '.join(GROUP_KEYS))
+    if params.groups:
+        if len(params.groups) != params.cells_series:
+            _fail('groups', '%d groups' % len(params.groups), 'one per series group: cells_series = %d'
+                  % params.cells_series)
+        for index, group in enumerate(params.groups):
+            if not isinstance(group, dict) or set(group) - set(GROUP_KEYS):
+                _fail('groups[%d]' % index, group, 'a mapping of %s' % ', '.join(GROUP_KEYS))
+            for key in ('capacity_factor', 'resistance_factor'):
+                if key in group and not (is_number(group[key]) and 0.0 < group[key] <= 10.0):
+                    _fail('groups[%d].%s' % (index, key), group[key], 'a factor in (0, 10]')
+            offset = group.get('initial_soc_offset', 0.0)
+            if not (is_number(offset) and -1.0 < offset < 1.0):
+                _fail('groups[%d].initial_soc_offset' % index, offset, 'a state of charge offset in (-1, 1)')
+    if params.balancing is not None:
+        balancing = params.balancing
+        if not isinstance(balancing, dict) or set(balancing) != set(BALANCING_KEYS):
+            _fail('balancing', balancing, 'a mapping of %s' % ', '.join(BALANCING_KEYS))
+        if not (is_number(balancing['current_a']) and 0.0 < balancing['current_a'] <= params.charge_current_a):
+            _fail('balancing.current_a', balancing['current_a'],
+                  'a bleed current in (0, charge_current_a = %g A]' % params.charge_current_a)
+        if not (is_number(balancing['start_voltage_v'])
+                and params.cell_cutoff_voltage_v < balancing['start_voltage_v'] <= params.cell_charge_voltage_v):
+            _fail('balancing.start_voltage_v', balancing['start_voltage_v'], 'a cell voltage in (%g, %g] V'
+                  % (params.cell_cutoff_voltage_v, params.cell_charge_voltage_v))
+        if not (is_number(balancing['threshold_v']) and 0.0 <= balancing['threshold_v'] <= 1.0):
+            _fail('balancing.threshold_v', balancing['threshold_v'], 'a voltage difference in [0, 1] V')
+    if not (is_number(params.imbalance_warn_v) and params.imbalance_warn_v > 0.0):
+        _fail('imbalance_warn_v', params.imbalance_warn_v, 'a number > 0 V')
+
+
+def _validate_gauge(params):
+    gauge = params.gauge
+    if gauge is None:
+        return
+    if not isinstance(gauge, dict) or set(gauge) - set(GAUGE_KEYS) or gauge.get('model') not in GAUGE_MODELS:
+        _fail('gauge', gauge, 'a mapping with model (%s) and %s' % (' or '.join(GAUGE_MODELS),
+                                                                    ', '.join(GAUGE_KEYS[1:])))
+    for key, low, high in (('current_offset_a', -100.0, 100.0), ('current_gain_error', -0.5, 0.5),
+                           ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0)):
+        if key in gauge and not (is_number(gauge[key]) and low <= gauge[key] <= high):
+            _fail('gauge.%s' % key, gauge[key], 'a number in [%g, %g]' % (low, high))
+    for key in ('recalibrate_at_full', 'recalibrate_at_empty'):
+        if key in gauge and not isinstance(gauge[key], bool):
+            _fail('gauge.%s' % key, gauge[key], 'true or false')
+    if gauge['model'] == 'ideal' and set(gauge) != {'model'}:
+        _fail('gauge', gauge, 'only {model: ideal} for an ideal gauge (its errors belong to coulomb_counter)')
 
 
 def _validate_currents(params):
@@ -356,7 +443,7 @@ def _validate_resistance_tables(params):
 PARAMETER_NAMES = tuple(f.name for f in fields(BatteryParameters))
 _TABLES = ('ocv_soc', 'ocv_voltage_v', 'ocv_charge_voltage_v', 'resistance_soc', 'r0_soc_factor',
            'r1_soc_factor', 'r_fast_soc_factor')
-_WHOLE_NUMBERS = ('cells_series', 'cells_parallel')
+_WHOLE_NUMBERS = ('cells_series', 'cells_parallel', 'spread_seed')
 _NUMBERS = tuple(f.name for f in fields(BatteryParameters) if f.type is float)   # numeric text read as numbers
 
 
@@ -387,6 +474,8 @@ def from_mapping(values, base=None, origin='parameters'):
             continue
         if key in _TABLES and isinstance(value, list):
             value = tuple(number_from_text(v) for v in value)
+        elif key == 'groups' and isinstance(value, list):
+            value = tuple(value)
         elif key in _NUMBERS:
             value = number_from_text(value)
         if key not in _WHOLE_NUMBERS and isinstance(value, int) and not isinstance(value, bool):

@@ -1,0 +1,69 @@
+"""The pack's fuel gauge: what a robot reads as its percentage, which need not be the truth (no ROS).
+
+A coulomb-counting gauge integrates the current its sensor measures, with an
+offset and a gain error, into the capacity it believes (which lags the pack's
+ageing and may be wrong from the start). It recalibrates at the end of a charge
+(it calls that 100 %) and at the cut-off (0 %), which is where a robot sees it
+jump. The model keeps the truth; battery_status, the action's feedback,
+low/critical, the dashboard and predict show the gauge.
+
+    measured current  I_m = I (1 + current_gain_error) + current_offset_a
+    gauge charge      q  += I_m dt   (clamped to [0, believed capacity])
+    believed capacity C_b = design capacity (1 + capacity_error)
+    gauge percentage  100 q / C_b
+"""
+
+
+class CoulombCounter:
+    """A coulomb-counting gauge (the config's ``gauge: {model: coulomb_counter, ...}``)."""
+
+    def __init__(self, config, design_capacity_ah, true_soc):
+        self.current_offset_a = float(config.get('current_offset_a', 0.0))
+        self.current_gain_error = float(config.get('current_gain_error', 0.0))
+        self.capacity_error = float(config.get('capacity_error', 0.0))
+        self.recalibrate_at_full = bool(config.get('recalibrate_at_full', True))
+        self.recalibrate_at_empty = bool(config.get('recalibrate_at_empty', True))
+        self.capacity_as = design_capacity_ah * 3600.0 * (1.0 + self.capacity_error)   # believed, pack A*s
+        soc = true_soc + float(config.get('initial_error', 0.0)) / 100.0
+        if not 0.0 <= soc <= 1.0:
+            raise ValueError('gauge.initial_error = %r is invalid: it puts the gauge at %.1f %% (the pack starts at '
+                             '%.1f %%): the percentage must stay in [0, 100]'
+                             % (config.get('initial_error'), 100.0 * soc, 100.0 * true_soc))
+        self.soc = soc
+
+    def count(self, charge_as, dt_s):
+        """The pack took ``charge_as`` (A*s, positive charging) over ``dt_s``: count what the sensor saw."""
+        measured = charge_as * (1.0 + self.current_gain_error) + self.current_offset_a * dt_s
+        soc = self.soc + measured / self.capacity_as
+        self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+
+    def on_full(self):
+        if self.recalibrate_at_full:
+            self.soc = 1.0
+
+    def on_empty(self):
+        if self.recalibrate_at_empty:
+            self.soc = 0.0
+
+    def add_error(self, points):
+        """``points`` percentage points added now; ValueError if that leaves 0-100 (nothing changed)."""
+        soc = self.soc + points / 100.0
+        if not 0.0 <= soc <= 1.0:
+            raise ValueError('gauge_error = %r is invalid: it puts the gauge at %.1f %% (now %.1f %%): the '
+                             'percentage must stay in [0, 100]' % (points, 100.0 * soc, 100.0 * self.soc))
+        self.soc = soc
+
+    @property
+    def charge_ah(self):
+        return self.soc * self.capacity_as / 3600.0
+
+    @property
+    def capacity_ah(self):
+        return self.capacity_as / 3600.0
+
+
+def make_gauge(config, design_capacity_ah, true_soc):
+    """The gauge of a config: None for an ideal one (the truth is shown), else a CoulombCounter."""
+    if not config or config.get('model', 'ideal') == 'ideal':
+        return None
+    return CoulombCounter(config, design_capacity_ah, true_soc)
