@@ -1,0 +1,263 @@
+"""A pack of series groups that differ (no ROS): the weakest ends the discharge, the highest the charge.
+
+Cells of one batch differ (capacity by 0.2-1 %, resistance by 0.5-4 %). In a
+series string every group carries the same current, so:
+
+- the discharge cuts off when the LOWEST group reaches the cell cut-off
+  voltage (the BMS watches every group), while the others still hold charge;
+- the charge's constant-voltage phase holds the HIGHEST group at the cell
+  charge voltage, so the pack stops charging while the others are short of
+  full: an imbalanced pack charges to less than full;
+- passive balancing bleeds ``balancing.current_a`` from every group more than
+  ``threshold_v`` above the lowest while charging above ``start_voltage_v``,
+  its heat into that group, and so pulls the groups together, slowly.
+
+Each group is a one-group BatteryModel (its cells in parallel) with its own
+charge, RC states, hysteresis and temperature; this class drives them with the
+one current, and keeps the pack-level attributes the rest of the package
+reads. The pack's state of charge is the charge it can still give over what it
+can give plus what it can still take,
+
+    SOC = Q_out / (Q_out + Q_in),  Q_out = min_i soc_i C_i,  Q_in = min_i (1 - soc_i) C_i
+
+(1 when the highest group is full, 0 when the lowest is empty, the plain SOC
+when the groups are alike).
+"""
+import math
+import random
+from dataclasses import replace
+
+from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+
+
+def group_factors(params):
+    """[(capacity factor, resistance factor, initial SOC offset)] of the series groups: the config's
+    ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma)."""
+    if params.groups:
+        return [(float(g.get('capacity_factor', 1.0)), float(g.get('resistance_factor', 1.0)),
+                 float(g.get('initial_soc_offset', 0.0))) for g in params.groups]
+    draw = random.Random(params.spread_seed)
+
+    def factor(spread):
+        return 1.0 + spread * max(-3.0, min(3.0, draw.gauss(0.0, 1.0)))
+    return [(factor(params.capacity_spread), factor(params.resistance_spread), 0.0)
+            for _ in range(params.cells_series)]
+
+
+def group_params(params, capacity_factor, resistance_factor):
+    """One series group as a pack of its own: the pack's cells in parallel, its capacity and resistances
+    scaled; loads and charger come from the pack (they are given to it as currents)."""
+    return replace(params, name=params.name + ' group', cells_series=1,
+                   cell_capacity_ah=params.cell_capacity_ah * capacity_factor,
+                   r0_ohm=params.r0_ohm * resistance_factor, r1_ohm=params.r1_ohm * resistance_factor,
+                   r_fast_ohm=params.r_fast_ohm * resistance_factor, load_power_w=0.0, drive_power_w_per_mps=0.0,
+                   turn_power_w_per_radps=0.0, capacity_spread=0.0, resistance_spread=0.0, groups=(),
+                   balancing=None, gauge=None, termination_current_a=params.pack_termination_current_a)
+
+
+class GroupedPack(BatteryModel):
+    """A pack of ``cells_series`` differing groups (BatteryModel returns one for such a config)."""
+
+    def __init__(self, params, state_of_charge=1.0, mode=Mode.DISCHARGE):
+        self.groups = [BatteryModel(group_params(params, capacity, resistance),
+                                    state_of_charge=min(1.0, max(0.0, state_of_charge + offset)), mode=mode)
+                       for capacity, resistance, offset in group_factors(params)]
+        self.bleeding = [False] * len(self.groups)   # which groups balancing bleeds now
+        super().__init__(params, state_of_charge, mode)
+        self._sync()
+
+    # -- what the rest of the package reads ---------------------------------------------
+
+    def _sync(self):
+        """The pack-level attributes from the groups."""
+        groups = self.groups
+        charge_out = min(g.state_of_charge * g._capacity_as for g in groups)
+        charge_in = min((1.0 - g.state_of_charge) * g._capacity_as for g in groups)
+        total = charge_out + charge_in
+        self.state_of_charge = charge_out / total if total > 0.0 else 0.0
+        self._capacity_as = total
+        self.discharged_ah = sum(g.discharged_ah for g in groups) / len(groups)
+        self.state_of_health = min(g.state_of_health for g in groups)
+        self.cell_current_a = groups[0].cell_current_a if not any(self.bleeding) else \
+            max(g.cell_current_a for g in groups)
+
+    @property
+    def temperature_c(self):
+        """The hottest group's (health and protection watch it)."""
+        return max(g.temperature_c for g in self.groups)
+
+    @temperature_c.setter
+    def temperature_c(self, value):   # set_state, the overheat fault: every group
+        for group in getattr(self, 'groups', ()):
+            group.temperature_c = value
+
+    @property
+    def cell_voltage_v(self):
+        """The mean group's terminal voltage, V (the pack's is the sum)."""
+        return sum(g.cell_voltage_v for g in self.groups) / len(self.groups)
+
+    @property
+    def open_circuit_voltage_v(self):
+        return sum(g.open_circuit_voltage_v for g in self.groups) / len(self.groups)
+
+    def cell_readings(self):
+        return tuple(g.cell_voltage_v for g in self.groups), tuple(g.temperature_c for g in self.groups)
+
+    def _update_capacity(self):
+        if hasattr(self, 'groups'):
+            for group in self.groups:
+                group._update_capacity()
+            self._sync()
+        else:
+            super()._update_capacity()
+
+    # -- the update ------------------------------------------------------------------------
+
+    def _state(self):
+        return (tuple(g._state() for g in self.groups), self.status, self.throughput_as, tuple(self.bleeding))
+
+    def _restore(self, state):
+        groups, self.status, self.throughput_as, bleeding = state
+        for group, saved in zip(self.groups, groups):
+            group._restore(saved)
+        self.bleeding = list(bleeding)
+        self._sync()
+
+    def _trip(self):
+        """Under-voltage when the lowest group reaches the cell cut-off; over-temperature at the hottest."""
+        p = self.params
+        if any(g.state_of_charge <= 0.0 or g.cell_voltage_v <= p.cell_cutoff_voltage_v for g in self.groups):
+            return CutOff.UNDER_VOLTAGE
+        if self._too_hot():
+            return CutOff.OVER_TEMPERATURE
+        return None
+
+    def _load_current_a(self, current_a, power_w):
+        """The string's current that feeds ``current_a`` plus ``power_w`` (the lumped rule over the sum
+        of the groups' EMFs and resistances)."""
+        p = self.params
+        cell_current = current_a / p.cells_parallel
+        string_power = power_w / p.cells_parallel
+        if string_power <= 0.0:
+            return -current_a
+        emf = sum(g.open_circuit_voltage_v + g.rc_voltage_v + g.fast_rc_voltage_v for g in self.groups)
+        r0 = sum(g._resistances.r0_at(g.state_of_charge, False) * g._resistance_scale() for g in self.groups)
+        discriminant = (emf - r0 * cell_current) ** 2 - 4.0 * r0 * string_power
+        if discriminant < 0.0 or emf <= 0.0:
+            return -math.inf
+        return -(emf + r0 * cell_current - math.sqrt(discriminant)) / (2.0 * r0) * p.cells_parallel
+
+    def _advance(self, dt_s, demand):
+        """Every group over ``dt_s`` with the string's one current (less a bleed where balancing acts)."""
+        p = self.params
+        groups = self.groups
+        cell_demand = demand / p.cells_parallel
+        if cell_demand > 0.0:
+            current = self._string_charge_current(dt_s, demand)
+        elif cell_demand < 0.0:
+            current = self._discharge_current(cell_demand) * p.cells_parallel
+        else:
+            current = 0.0
+            if self.status not in (Status.FULL, Status.EMPTY):
+                self.status = Status.NOT_CHARGING
+        bleeds = self._bleeds(current)
+        for group, bleed in zip(groups, bleeds):
+            group.status = Status.CHARGING if current > 0.0 else Status.DISCHARGING
+            group.cut_off = None
+            group.charger_fault = False
+            group._advance(dt_s, current - bleed)
+            if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
+                self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
+        self.bleeding = [bool(b) for b in bleeds]
+        self.throughput_as += current / p.cells_parallel * dt_s
+        self._sync()
+        self.cell_current_a = current / p.cells_parallel
+        if current > 0.0:
+            self.status = Status.CHARGING
+
+    def _string_charge_current(self, dt_s, demand):
+        """The charge current the highest group allows (CC-CV of every group; the least wins), or 0 and
+        FULL at the taper's end."""
+        if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
+            self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
+            return 0.0
+        p = self.params
+        if demand / p.cells_parallel > p.cell_max_charge_current_a:
+            self._disconnect(CutOff.OVER_CURRENT, Status.NOT_CHARGING)
+            return 0.0
+        allowed = []
+        for group in self.groups:   # each group's CC-CV current for this step, tried and undone
+            saved = group._state()
+            group.status, group.cut_off, group.charger_fault = Status.CHARGING, None, False
+            group._advance(dt_s, demand)
+            allowed.append(group.cell_current_a * p.cells_parallel if group.status is Status.CHARGING else 0.0)
+            group._restore(saved)
+        current = min(allowed)
+        if current < demand and current <= p.pack_termination_current_a:
+            limiting = self.groups[allowed.index(current)]
+            limiting._become_full()   # the highest group is full: the charge ends, the others short of it
+            for group in self.groups:
+                group.cell_current_a = 0.0
+            self.status = Status.FULL
+            return 0.0
+        return current
+
+    def _bleeds(self, current):
+        """The bleed current of each group now (passive balancing while charging), A."""
+        balancing = self.params.balancing
+        if not balancing or current <= 0.0:
+            return [0.0] * len(self.groups)
+        voltages = [g.cell_voltage_v for g in self.groups]
+        if max(voltages) < balancing['start_voltage_v']:
+            return [0.0] * len(self.groups)
+        lowest = min(voltages)
+        return [min(balancing['current_a'], current) if v - lowest > balancing['threshold_v'] else 0.0
+                for v in voltages]
+
+    def _heat(self, group, power_per_cell_w, dt_s):
+        """Add ``power_per_cell_w`` held over ``dt_s`` to a group's lumped thermal mass (exact)."""
+        p = self.params
+        rise = power_per_cell_w / p.cell_heat_transfer_w_per_k
+        group.temperature_c += rise * (1.0 - math.exp(-dt_s * p.cell_heat_transfer_w_per_k
+                                                      / p.cell_heat_capacity_j_per_k))
+
+    def _become_full(self):   # only the groups end a charge (_string_charge_current)
+        self.status = Status.FULL
+        self.cell_current_a = 0.0
+
+    # -- inputs -------------------------------------------------------------------------------
+
+    def set_mode(self, mode):
+        for group in self.groups:
+            group.mode = mode
+        super().set_mode(mode)
+
+    def set_state(self, state_of_charge=None, temperature_c=None, state_of_health=None, gauge_error=None):
+        """As BatteryModel's; a state of charge puts every group there (their SOC offsets cleared).
+        ValueError, nothing changed, for a value out of range."""
+        saved = [g._state() for g in self.groups]
+        try:
+            for group in self.groups:
+                group.set_state(state_of_charge, temperature_c, state_of_health)
+            self._sync()
+            BatteryModel.set_state(self, state_of_charge, None, None, gauge_error)
+        except ValueError:
+            for group, state in zip(self.groups, saved):
+                group._restore(state)
+            self._sync()
+            raise
+        self._sync()
+
+    def export_state(self):
+        state = super().export_state()
+        state['groups'] = [g.export_state() for g in self.groups]
+        return state
+
+    def _restore_groups(self, saved_groups):
+        if isinstance(saved_groups, list) and len(saved_groups) == len(self.groups):
+            for group, saved in zip(self.groups, saved_groups):
+                try:
+                    group.restore_state(saved)
+                except ValueError:
+                    pass   # that group resumes from the pack's values
+        self._sync()
