@@ -104,3 +104,20 @@ class Recorder:
             return False
         wait_for(check, timeout_s, what)
         return found[0]
+
+
+class SetStateProxy:
+    """battery_simulator/set_state called as Part 2 wrote it, set_state(percentage, temperature_c,
+    state_of_health); Part 5's gauge_error (NaN: none) is a keyword."""
+
+    def __init__(self, name):
+        from battery_simulator.srv import SetState
+        self._proxy = rospy.ServiceProxy(name, SetState)
+
+    def __call__(self, percentage=float('nan'), temperature_c=float('nan'), state_of_health=float('nan'),
+                 gauge_error=float('nan')):
+        return self._proxy(percentage=percentage, temperature_c=temperature_c, state_of_health=state_of_health,
+                           gauge_error=gauge_error)
+
+    def wait_for_service(self, timeout=None):
+        return self._proxy.wait_for_service(timeout)

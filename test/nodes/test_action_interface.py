@@ -15,7 +15,7 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import SetState
-from rostest_helpers import Recorder, result_name, wait_for
+from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 GOAL_TIMEOUT_S = 60.0
@@ -47,7 +47,7 @@ class TestActionInterface(unittest.TestCase):
         cls.log = Recorder('/rosout', Log)
         cls.state = Recorder('battery_simulator/state', BatterySimState)
         rospy.wait_for_service('battery_simulator/set_state', 30.0)
-        cls.set_state = rospy.ServiceProxy('battery_simulator/set_state', SetState)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
         wait_for(lambda: cls.status.count() > 0, 30.0, 'the first battery_status')
 
     def tearDown(self):

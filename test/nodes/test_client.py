@@ -14,7 +14,7 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.srv import SetState
 
-from rostest_helpers import Recorder, node_command, stop_process, wait_for
+from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 CLIENT = node_command('battery_sim_client.py')
 ROSRUN_CLIENT = ['rosrun', 'battery_simulator', 'battery_sim_client.py']   # as a user types it
@@ -69,7 +69,7 @@ class TestClient(unittest.TestCase):
         """Discharging at ``percentage`` (set_state: whatever earlier tests left)."""
         rospy.set_param('MyRobot/BatteryStatus', 0)
         rospy.wait_for_service('battery_simulator/set_state', 30.0)
-        self.assertTrue(rospy.ServiceProxy('battery_simulator/set_state', SetState)(percentage, NAN, NAN).success)
+        self.assertTrue(SetStateProxy('battery_simulator/set_state')(percentage, NAN, NAN).success)
         self.status.wait_until(lambda m: m.current < 0 and m.percentage <= percentage / 100.0, 30.0,
                                'discharging at %g %%' % percentage)
 

@@ -19,7 +19,7 @@ from selenium.webdriver.support.ui import WebDriverWait
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.srv import SetState
-from rostest_helpers import Recorder, node_command, stop_process, wait_for
+from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(5)]
 NAN_TOPIC = '/zz_nan/battery_status'   # sorts after the robots
@@ -113,7 +113,7 @@ class TestDashboard(unittest.TestCase):
         return float(self.field(topic, 'percentage').split()[0])
 
     def set_state(self, robot, percentage):
-        set_state = rospy.ServiceProxy('/%s/battery_simulator/set_state' % robot, SetState)
+        set_state = SetStateProxy('/%s/battery_simulator/set_state' % robot)
         set_state.wait_for_service(10.0)
         self.assertTrue(set_state(percentage, math.nan, math.nan).success)
 

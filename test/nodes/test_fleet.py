@@ -18,7 +18,7 @@ from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import InjectFault, SetLoad, SetState
-from rostest_helpers import Recorder, node_command, stop_process, wait_for
+from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(6)]
 RATE_HZ = 5.0   # fleet.launch rate in test/fleet.test
@@ -125,7 +125,7 @@ class TestFleet(unittest.TestCase):
         self.assertIn('robot1 is already served by /battery_fleet', fatal[0])
         self.assertNotIn('Traceback', output)
         before = self.status['robot1'].count()
-        reply = rospy.ServiceProxy('/robot1/battery_simulator/set_state', SetState)(
+        reply = SetStateProxy('/robot1/battery_simulator/set_state')(
             percentage=float('nan'), temperature_c=float('nan'), state_of_health=float('nan'))
         self.assertTrue(reply.success, 'robot1 keeps its services after the intruder ended')
         wait_for(lambda: self.status['robot1'].count() > before + 2, 10.0, 'robot1 battery_status flowing')

@@ -24,7 +24,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import InjectFault, SetLoad, SetState
-from rostest_helpers import Recorder, result_name, wait_for
+from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN, INF = float('nan'), float('inf')
@@ -63,7 +63,7 @@ class TestHardening(unittest.TestCase):
         cls.gate_out = Recorder('probe/cmd_vel_out', Twist)
         for service in ('set_state', 'reset', 'inject_fault', 'set_load', 'set_charging'):
             rospy.wait_for_service('battery_simulator/' + service, 30.0)
-        cls.set_state = rospy.ServiceProxy('battery_simulator/set_state', SetState)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
         cls.reset = rospy.ServiceProxy('battery_simulator/reset', Trigger)
         cls.inject = rospy.ServiceProxy('battery_simulator/inject_fault', InjectFault)
         cls.set_load = rospy.ServiceProxy('battery_simulator/set_load', SetLoad)

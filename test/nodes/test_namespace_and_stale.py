@@ -19,7 +19,7 @@ from std_msgs.msg import UInt64
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import SetState
-from rostest_helpers import Recorder, node_command, stop_process, wait_for
+from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOT2 = 'robot2/battery_state_pub: Battery'
 ACK_DELAY_S = 0.5   # below the server's 1 s bound on the wait
@@ -107,7 +107,7 @@ class TestNamespaceAndStale(unittest.TestCase):
         server = start_server('robot4')
         self.addCleanup(stop_process, server)
         rospy.wait_for_service('/robot4/battery_simulator/set_state', 30.0)
-        set_state = rospy.ServiceProxy('/robot4/battery_simulator/set_state', SetState)
+        set_state = SetStateProxy('/robot4/battery_simulator/set_state')
         started = time.monotonic()
         self.assertTrue(set_state(50.0, NAN, NAN).success)
         self.assertLess(time.monotonic() - started, ACK_DELAY_S, 'nobody to ack: the reply does not wait')

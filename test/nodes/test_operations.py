@@ -17,12 +17,13 @@ from std_srvs.srv import Trigger
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import InjectFault, SetState
-from rostest_helpers import Recorder, result_name, wait_for
+from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN = float('nan')
 KEYS = ['Voltage (V)', 'Current (A)', 'Charge (Ah)', 'Capacity (Ah)', 'Design Capacity (Ah)', 'Percentage (%)',
-        'Temperature (C)', 'Charging State', 'Health', 'Cycle Count', 'State of Health (%)', 'Time Remaining (min)']
+        'Temperature (C)', 'Charging State', 'Health', 'Cycle Count', 'State of Health (%)', 'Time Remaining (min)',
+        'Cell Voltage Min (V)', 'Cell Voltage Max (V)', 'Cell Imbalance (mV)']   # Part 5's three
 DEFAULTS = {'load_current_a': 1.5, 'time_scale': 10.0, 'load_power_w': 0.0, 'charge_current_a': 1.5,
             'ambient_temperature_c': 25.0, 'drive_power_w_per_mps': 50.0, 'turn_power_w_per_radps': 4.0}
 SIGMA_V, SIGMA_A = 0.02, 0.05   # the default preset's voltage_noise_v, current_noise_a
@@ -46,7 +47,7 @@ class TestOperations(unittest.TestCase):
         cls.aggregated = Recorder('/diagnostics_agg', DiagnosticArray)
         for service in ('set_state', 'reset', 'inject_fault'):
             rospy.wait_for_service('battery_simulator/' + service, 30.0)
-        cls.set_state = rospy.ServiceProxy('battery_simulator/set_state', SetState)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
         cls.reset = rospy.ServiceProxy('battery_simulator/reset', Trigger)
         cls.inject = rospy.ServiceProxy('battery_simulator/inject_fault', InjectFault)
         cls.client = actionlib.SimpleActionClient('battery_simulator', battery_simAction)

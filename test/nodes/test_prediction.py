@@ -20,7 +20,7 @@ from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatterySimState
 from battery_simulator.srv import Predict, PredictRequest, SetLoad, SetState
-from rostest_helpers import Recorder, result_name, wait_for
+from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
 
 MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN = float('nan')
@@ -63,7 +63,7 @@ class TestPrediction(unittest.TestCase):
         for service in ('predict', 'set_state', 'set_load', 'set_charging'):
             rospy.wait_for_service('battery_simulator/' + service, 30.0)
         cls.predict = rospy.ServiceProxy('battery_simulator/predict', Predict, persistent=True)
-        cls.set_state = rospy.ServiceProxy('battery_simulator/set_state', SetState)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
         cls.set_load = rospy.ServiceProxy('battery_simulator/set_load', SetLoad)
         cls.set_charging = rospy.ServiceProxy('battery_simulator/set_charging', SetBool)
         cmd_vel = rospy.Publisher('cmd_vel', Twist, queue_size=10)

@@ -19,7 +19,7 @@ from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import SetLoad, SetState
-from rostest_helpers import Recorder, result_name, wait_for
+from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
 
 TIME_SCALE = 20.0
 MODE_PARAM = 'MyRobot/BatteryStatus'
@@ -58,7 +58,7 @@ class TestRobotLoop(unittest.TestCase):
         cls.odom = rospy.Publisher('dock_test/odom', Odometry, queue_size=1)
         for service in ('battery_simulator/set_state', 'battery_simulator/set_load', 'battery_simulator/set_charging'):
             rospy.wait_for_service(service, 30.0)
-        cls.set_state = rospy.ServiceProxy('battery_simulator/set_state', SetState)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
         cls.set_load = rospy.ServiceProxy('battery_simulator/set_load', SetLoad)
         cls.set_charging = rospy.ServiceProxy('battery_simulator/set_charging', SetBool)
         cls.client = actionlib.SimpleActionClient('battery_simulator', battery_simAction)

@@ -400,7 +400,7 @@ class BatterySimServer:
 
     def _set_state(self, request):
         return self._service(SetStateResponse, lambda: self.battery.set_state(
-            request.percentage, request.temperature_c, request.state_of_health))
+            request.percentage, request.temperature_c, request.state_of_health, request.gauge_error))
 
     def _reset(self, request):
         return self._service(TriggerResponse, self.battery.reset)

@@ -119,18 +119,18 @@ class BatteryRecord:
         if self._battery is None:
             s, p = self.snapshot, self.params
             voltage, current = s.voltage_v, s.current_a
-            cells = [s.cell_voltage_v] * p.cells_series
+            cells = list(s.cell_voltages_v)
             if self._noise is not None:
                 voltage = noisy_voltage(voltage, self._noise.gauss(0.0, p.voltage_noise_v))
                 current = noisy_current(current, self._noise.gauss(0.0, p.current_noise_a),
                                         self.power_supply_status)
-                cells = [voltage / len(cells)] * len(cells)
+                cells = [cell * voltage / s.voltage_v for cell in cells] if s.voltage_v > 0.0 else cells
             self._battery = dict(
                 voltage=voltage, temperature=s.temperature_c, current=current, charge=s.charge_ah,
                 capacity=s.capacity_ah, design_capacity=s.design_capacity_ah, percentage=self.percentage,
                 power_supply_status=self.power_supply_status, power_supply_health=SUPPLY_HEALTH[s.health],
                 power_supply_technology=TECHNOLOGY_LION, present=True, cell_voltage=cells,
-                cell_temperature=[s.temperature_c] * p.cells_series, location=p.location,
+                cell_temperature=list(s.cell_temperatures_c), location=p.location,
                 serial_number=p.serial_number)
         return self._battery
 
@@ -146,6 +146,8 @@ class BatteryRecord:
             load_power_w=self.load_power_w,
             active_faults=sorted(self.faults),
             sensor_dropout=self.sensor_dropout,
+            true_percentage=s.true_percentage,
+            imbalance_warn_v=self.params.imbalance_warn_v,
         )
 
 
@@ -394,15 +396,17 @@ class Battery:
             self.model.set_extra_load(PAYLOAD_LOAD, power_w=total)
         return '%s: %g W; payload loads now %g W' % (name, power_w, total)
 
-    def set_state(self, percentage=math.nan, temperature_c=math.nan, state_of_health=math.nan):
-        """Put the pack where a test needs it (NaN or None leaves a value); the reply's text, or BatteryError."""
+    def set_state(self, percentage=math.nan, temperature_c=math.nan, state_of_health=math.nan, gauge_error=math.nan):
+        """Put the pack where a test needs it (NaN or None leaves a value; a gauge_error of 0 adds nothing);
+        the reply's text, or BatteryError."""
         def given(value):
             return None if value is None or (isinstance(value, float) and math.isnan(value)) else value
         percentage = given(percentage)
+        gauge_error = None if given(gauge_error) in (None, 0, 0.0) else gauge_error
         try:
             with self.lock:
                 self.model.set_state(None if percentage is None else percentage / 100.0,
-                                     given(temperature_c), given(state_of_health))
+                                     given(temperature_c), given(state_of_health), gauge_error)
         except (ValueError, TypeError) as error:
             raise BatteryError(str(error).replace('state_of_charge', 'percentage/100')) from None
         return 'state set'
@@ -416,6 +420,7 @@ class Battery:
             self.model.discharged_ah = 0.0
             cleared, self._faults = sorted(self._faults), set()   # the start-up state has no faults
             self.model.set_charger_fault(False)
+            self.model.set_gauge_stuck(False)
         if cleared:
             self._log.warn('reset: faults cleared: %s', ', '.join(cleared))
         return 'reset to %.1f %%, mode kept%s' % (
@@ -433,6 +438,8 @@ class Battery:
                 self._faults.discard(fault)
             if fault == 'charger_fault':
                 self.model.set_charger_fault(active)
+            elif fault == 'gauge_stuck':
+                self.model.set_gauge_stuck(active)
         self._log.warn('fault %s %s', fault, 'injected' if active else 'cleared')
         return '%s %s' % (fault, 'active' if active else 'cleared')
 

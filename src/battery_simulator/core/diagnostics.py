@@ -22,6 +22,10 @@ def battery_level(state, stale, low, critical):
         return DiagnosticLevel.WARN, 'Health: %s' % HEALTH_TEXT.get(battery.power_supply_health, 'Unknown')
     if battery.percentage < low:
         return DiagnosticLevel.WARN, 'Low: %.1f %%' % (100.0 * battery.percentage)
+    imbalance_v = cell_imbalance_v(battery)
+    if imbalance_v > getattr(state, 'imbalance_warn_v', math.inf):
+        return DiagnosticLevel.WARN, 'Imbalance: %.0f mV between the cells (above %.0f mV)' % (
+            1000.0 * imbalance_v, 1000.0 * state.imbalance_warn_v)
     return DiagnosticLevel.OK, '%s, %.1f %%' % (state.charging_state, 100.0 * battery.percentage)
 
 
@@ -29,6 +33,7 @@ def battery_values(state):
     """The status's (key, value) pairs, in the interface's order (names.DIAGNOSTIC_KEYS)."""
     battery = state.battery
     remaining = state.time_remaining_s
+    cells = list(battery.cell_voltage)
     return [
         ('Voltage (V)', '%.3f' % battery.voltage),
         ('Current (A)', '%.3f' % battery.current),
@@ -42,7 +47,16 @@ def battery_values(state):
         ('Cycle Count', '%.2f' % state.cycle_count),
         ('State of Health (%)', '%.1f' % (100.0 * state.state_of_health)),
         ('Time Remaining (min)', '' if math.isnan(remaining) else '%.1f' % (remaining / 60.0)),
+        ('Cell Voltage Min (V)', '%.3f' % min(cells) if cells else ''),
+        ('Cell Voltage Max (V)', '%.3f' % max(cells) if cells else ''),
+        ('Cell Imbalance (mV)', '%.1f' % (1000.0 * cell_imbalance_v(battery))),
     ]
+
+
+def cell_imbalance_v(battery):
+    """The spread of the cell (group) voltages, V (0 with fewer than two)."""
+    cells = list(battery.cell_voltage)
+    return max(cells) - min(cells) if len(cells) > 1 else 0.0
 
 
 def no_data_yet():

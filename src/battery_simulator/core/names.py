@@ -10,6 +10,7 @@ from battery_simulator.core.battery_model import Health, Status
 #: the faults inject_fault knows, with what each does
 FAULTS = {
     'charger_fault': 'charger connected but no current flows',
+    'gauge_stuck': 'the reported percentage freezes while the pack moves on',
     'measurement_noise': 'Gaussian noise on the reported voltage and current',
     'overheat': 'the pack heats past its overheat limit',
     'sensor_dropout': 'battery_status stops; the model runs on',

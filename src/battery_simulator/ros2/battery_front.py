@@ -207,7 +207,7 @@ class BatteryFront:
 
     def _set_state(self, request, response):
         return self._service(response, lambda: self.battery.set_state(
-            request.percentage, request.temperature_c, request.state_of_health))
+            request.percentage, request.temperature_c, request.state_of_health, request.gauge_error))
 
     def _reset(self, request, response):
         return self._service(response, self.battery.reset)

@@ -155,7 +155,8 @@ class BatteryDashboard:
             rospy.wait_for_service(name, timeout=SERVICE_TIMEOUT_S)
             proxy = rospy.ServiceProxy(name, service_type)
             if action == 'set_state':
-                response = proxy(arguments['percentage'], arguments['temperature_c'], arguments['state_of_health'])
+                response = proxy(percentage=arguments['percentage'], temperature_c=arguments['temperature_c'],
+                                 state_of_health=arguments['state_of_health'], gauge_error=float('nan'))
             elif action == 'set_charging':
                 response = proxy(arguments['charging'])
             else:
