@@ -59,3 +59,16 @@ def test_marks_at_the_same_moment_become_one_label():
     assert plot.merged_marks(marks, 100.0) == [(0.0, 'DISCHARGING, low'), (30.0, 'CHARGING'), (53.0, 'FULL, UNDOCK')]
     assert plot.merged_marks(marks, 1.0) == sorted(marks)
     assert plot.merged_marks([(5.0, 'CHARGING'), (5.1, 'CHARGING')], 100.0) == [(5.0, 'CHARGING')]
+
+
+def test_a_replay_of_a_pack_of_groups_draws_the_cell_spread_and_the_gauge(tmp_path):
+    csv_path = tmp_path / 'aged.csv'
+    csv_path.write_text('time,voltage,current,soc,temperature,status,cell_voltage_min,cell_voltage_max,gauge_soc\n'
+                        '0,28.0,-5,0.90,25.0,DISCHARGING,3.99,4.01,0.92\n'
+                        '1800,26.0,-5,0.60,26.0,DISCHARGING,3.70,3.74,0.64\n'
+                        '3600,24.0,-5,0.30,27.0,DISCHARGING,3.50,3.58,0.36\n')
+    run = plot.read_replay_csv(csv_path)
+    assert run.gauge == pytest.approx([92.0, 64.0, 36.0]) and run.cells[1][2] == pytest.approx(3.58)
+    result = run_plot(csv_path, '-o', tmp_path / 'aged.png')
+    assert result.returncode == 0, result.stderr
+    assert is_png(tmp_path / 'aged.png')

@@ -267,7 +267,7 @@ def test_cli_charge_defaults_to_empty_and_takes_presets_and_refuses_bad_currents
     result = run_cli('--charge', '4', '--preset', 'lg_hg2_7s4p')
     assert result.returncode == 0, result.stderr
     assert 'from 0 % to Full' in result.stderr
-    assert list(csv.reader(io.StringIO(result.stdout)))[-1][-1] == 'FULL'
+    assert list(csv.reader(io.StringIO(result.stdout)))[-1][5] == 'FULL'   # the status column
     result = run_cli('--charge', '10')
     assert result.returncode == 1
     assert result.stderr.strip() == ('battery_replay: --charge 10: parameter charge_current_a = 10.0 is invalid: '

@@ -196,8 +196,8 @@ def test_list_presets_needs_no_profile():
 
 
 @pytest.mark.parametrize('soc, first_row', [
-    ('0', ['0', '2.8000', '0.0000', '0.00000', '25.00', 'NOT_CHARGING']),
-    ('1', ['0', '4.2000', '0.0000', '1.00000', '25.00', 'NOT_CHARGING']),
+    ('0', ['0', '2.8000', '0.0000', '0.00000', '25.00', 'NOT_CHARGING', '2.8000', '2.8000', '0.00000']),
+    ('1', ['0', '4.2000', '0.0000', '1.00000', '25.00', 'NOT_CHARGING', '4.2000', '4.2000', '1.00000']),
 ])
 def test_soc_bounds_are_allowed_and_the_pack_starts_at_rest(tmp_path, soc, first_row):
     config = tmp_path / 'cell.yaml'
@@ -226,7 +226,8 @@ def test_one_line_errors_from_the_cli(tmp_path):
 def test_output_file_has_unix_line_ends(tmp_path):
     out = tmp_path / 'out.csv'
     assert run_cli(profile_file(tmp_path), '-o', out).returncode == 0
-    assert out.read_bytes().startswith(b'time,voltage,current,soc,temperature,status\n0,')
+    assert out.read_bytes().startswith(b'time,voltage,current,soc,temperature,status,cell_voltage_min,'
+                                       b'cell_voltage_max,gauge_soc\n0,')
     assert b'\r' not in out.read_bytes()
 
 
@@ -363,7 +364,7 @@ def test_a_finished_replay_replaces_the_older_output(tmp_path):
     out = tmp_path / 'out.csv'
     out.write_text('older results\n')
     assert run_cli(profile_file(tmp_path), '-o', out).returncode == 0
-    assert out.read_text().startswith('time,voltage,current,soc,temperature,status\n0,')
+    assert out.read_text().startswith('time,voltage,current,soc,temperature,status,')
     assert sorted(p.name for p in tmp_path.iterdir()) == ['out.csv', 'p.csv']
 
 
@@ -390,3 +391,16 @@ def test_a_bad_argument_is_one_line_naming_it(args):
     assert result.returncode == 2 and result.stdout == ''
     assert result.stderr.count('\n') == 1 and result.stderr.startswith('battery_replay.py: error: argument --')
     assert '_current' not in result.stderr and '_step' not in result.stderr
+
+
+def test_the_csv_has_the_cell_spread_and_what_the_gauge_read(tmp_path):
+    """Part 5: cell_voltage_min / _max per series group, gauge_soc the gauge's view (soc stays the truth)."""
+    config = tmp_path / 'aged.yaml'
+    config.write_text('preset: lg_hg2_7s4p_aged\n')
+    result = run_cli(profile_file(tmp_path, 'time,current\n0,-5\n3600,-5\n'), '--config', config, '--soc', '0.9')
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    last = rows[-1]
+    assert float(last['cell_voltage_max']) - float(last['cell_voltage_min']) > 0.001, 'the groups differ'
+    # the aged gauge starts 2 points high and believes a 6 % larger capacity: it reads more than the truth
+    assert float(last['gauge_soc']) > float(last['soc']) + 0.02, last

@@ -18,7 +18,8 @@ from collections import namedtuple
 from battery_simulator.core.level_alarm import LevelAlarm
 
 #: one run: times (s from the start) and the four series, plus [(t, label)] marks
-Run = namedtuple('Run', 'title time voltage current percentage temperature marks')
+Run = namedtuple('Run', 'title time voltage current percentage temperature marks gauge cells',
+                 defaults=(None, None))   # gauge: what the fuel gauge read (%); cells: (min, max) cell voltages
 SUPPLY_STATUS = {0: 'UNKNOWN', 1: 'CHARGING', 2: 'DISCHARGING', 3: 'NOT_CHARGING', 4: 'FULL'}
 LOW, CRITICAL, HYSTERESIS = 0.20, 0.05, 0.05   # the publisher's defaults
 
@@ -68,7 +69,15 @@ def read_replay_csv(path):
     start = time[0]
     time = [t - start for t in time]
     marks = status_marks(time, [r['status'] for r in rows]) + level_marks(time, soc)
-    return Run(str(path), time, percentage=[100.0 * s for s in soc], marks=sorted(marks), **series)
+    gauge = cells = None
+    try:
+        if 'gauge_soc' in rows[0]:   # Part 5's columns (a CSV of an older replay has none)
+            gauge = [100.0 * float(r['gauge_soc']) for r in rows]
+            cells = ([float(r['cell_voltage_min']) for r in rows], [float(r['cell_voltage_max']) for r in rows])
+    except (TypeError, ValueError, KeyError) as error:
+        raise PlotError('%s: a value is not a number (%s)' % (path, error)) from None
+    return Run(str(path), time, percentage=[100.0 * s for s in soc], marks=sorted(marks), gauge=gauge, cells=cells,
+               **series)
 
 
 def read_rosbag(path, topic=None):
@@ -141,6 +150,14 @@ def plot(run, output):
         axis.grid(alpha=0.3)
         for t, _ in run.marks:
             axis.axvline(t * scale, color='grey', linestyle=':', linewidth=0.8)
+    if run.gauge is not None and any(abs(g - p) > 0.05 for g, p in zip(run.gauge, run.percentage)):
+        axes[2].plot(time, run.gauge, color='tab:purple', linewidth=1.0, linestyle='--', label='fuel gauge')
+        axes[2].lines[0].set_label('true charge')
+        axes[2].legend(loc='best', fontsize=8)
+    if run.cells is not None and any(high - low > 1e-4 for low, high in zip(*run.cells)):
+        cell_axis = axes[0].twinx()   # the spread of the series groups, per cell
+        cell_axis.fill_between(time, run.cells[0], run.cells[1], color='tab:cyan', alpha=0.35, linewidth=0)
+        cell_axis.set_ylabel('cell min-max (V)', fontsize=8)
     axes[2].set_ylim(-2, 102)
     top = axes[0]
     labels = merged_marks(run.marks, run.time[-1] - run.time[0] if len(run.time) > 1 else 1.0)

@@ -28,7 +28,10 @@ from battery_simulator.core.battery_model import BatteryModel, Mode
 from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
 from battery_simulator.core.prediction import predict
 
-OUTPUT_COLUMNS = ('time', 'voltage', 'current', 'soc', 'temperature', 'status')
+#: soc is the truth; gauge_soc what the pack's fuel gauge reads (0-1); the cell voltages of the lowest
+#: and highest series group (alike in a lumped pack)
+OUTPUT_COLUMNS = ('time', 'voltage', 'current', 'soc', 'temperature', 'status', 'cell_voltage_min',
+                  'cell_voltage_max', 'gauge_soc')
 #: the shortest --max-step, s
 MIN_STEP_S = 0.001
 #: the most model steps one profile segment is cut into (the model is exact
@@ -102,8 +105,10 @@ def replay(params, profile, state_of_charge=1.0, max_step_s=1.0):
 
 
 def _row(time_s, model):
+    cells = model.cell_readings()[0]
     return ('%g' % time_s, '%.4f' % model.voltage_v, '%.4f' % model.current_a,
-            '%.5f' % model.state_of_charge, '%.2f' % model.temperature_c, model.status.name)
+            '%.5f' % model.state_of_charge, '%.2f' % model.temperature_c, model.status.name,
+            '%.4f' % min(cells), '%.4f' % max(cells), '%.5f' % (model.gauge_reading()[0] / 100.0))
 
 
 def charge(params, charge_current_a, state_of_charge=0.0):
