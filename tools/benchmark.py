@@ -28,17 +28,17 @@ STEPS = 200_000
 REPEATS = 5
 
 
-def per_step_us(mode, soc, **step_args):
-    """Median microseconds per step over REPEATS runs of STEPS steps of 0.1 s."""
+def per_step_us(mode, soc, preset_name='lg_hg2_3s1p', steps=STEPS, **step_args):
+    """Median microseconds per step over REPEATS runs of ``steps`` steps."""
     runs = []
     for _ in range(REPEATS):
-        model = BatteryModel(preset('lg_hg2_3s1p'), state_of_charge=soc, mode=mode)
+        model = BatteryModel(preset(preset_name), state_of_charge=soc, mode=mode)
         model.set_extra_load('motion', current_a=0.0)
         step = model.step
         start = time.perf_counter()
-        for _ in range(STEPS):
+        for _ in range(steps):
             step(1e-4, **step_args)  # tiny dt: the state stays in the regime being measured
-        runs.append((time.perf_counter() - start) / STEPS * 1e6)
+        runs.append((time.perf_counter() - start) / steps * 1e6)
     return statistics.median(runs)
 
 
@@ -76,6 +76,17 @@ def main():
     ]
     print_table('The battery model (CPython %d.%d)' % sys.version_info[:2], ('measurement', 'figure', 'target'),
                 [(name, figure, '< 5 us' if figure.endswith('us') else 'seconds') for name, figure in rows])
+    lumped = per_step_us(Mode.DISCHARGE, 0.8, 'lg_hg2_7s4p', steps=STEPS // 10)
+    aged = [('step, 7-group pack discharging (balancing, coulomb counter)',
+             per_step_us(Mode.DISCHARGE, 0.8, 'lg_hg2_7s4p_aged', steps=STEPS // 10)),
+            ('step, 7-group pack CC charging (balancing, coulomb counter)',
+             per_step_us(Mode.CHARGE, 0.3, 'lg_hg2_7s4p_aged', steps=STEPS // 10)),
+            ('step, 7-group pack CV charging, balancing (the trial steps)',
+             per_step_us(Mode.CHARGE, 0.97, 'lg_hg2_7s4p_aged', steps=STEPS // 10))]
+    print_table('A pack of 7 differing groups (lg_hg2_7s4p_aged) beside the lumped lg_hg2_7s4p (%.2f us)' % lumped,
+                ('measurement', 'figure', 'per lumped step', 'target'),
+                [(name, '%.2f us' % us, '%.1f x' % (us / lumped), '<= 7 x (charging: + the trial steps)')
+                 for name, us in aged])
 
 
 if __name__ == '__main__':

@@ -30,6 +30,10 @@ from dataclasses import replace
 from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
 
 
+#: a group this far below its charge voltage is in its CC phase: the string's charge is not tried per group
+CV_MARGIN_V = 0.15
+
+
 def group_factors(params):
     """[(capacity factor, resistance factor, initial SOC offset)] of the series groups: the config's
     ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma)."""
@@ -63,23 +67,32 @@ class GroupedPack(BatteryModel):
                                     state_of_charge=min(1.0, max(0.0, state_of_charge + offset)), mode=mode)
                        for capacity, resistance, offset in group_factors(params)]
         self.bleeding = [False] * len(self.groups)   # which groups balancing bleeds now
+        self._voltages = [0.0] * len(self.groups)    # the groups' voltages as the charge step began
         super().__init__(params, state_of_charge, mode)
         self._sync()
 
     # -- what the rest of the package reads ---------------------------------------------
 
     def _sync(self):
-        """The pack-level attributes from the groups."""
-        groups = self.groups
-        charge_out = min(g.state_of_charge * g._capacity_as for g in groups)
-        charge_in = min((1.0 - g.state_of_charge) * g._capacity_as for g in groups)
+        """The pack-level attributes from the groups (one pass: it runs at every step)."""
+        charge_out = charge_in = math.inf
+        discharged = 0.0
+        health = 1.0
+        for group in self.groups:
+            capacity, soc = group._capacity_as, group.state_of_charge
+            if soc * capacity < charge_out:
+                charge_out = soc * capacity
+            if (1.0 - soc) * capacity < charge_in:
+                charge_in = (1.0 - soc) * capacity
+            discharged += group.discharged_ah
+            if group.state_of_health < health:
+                health = group.state_of_health
         total = charge_out + charge_in
         self.state_of_charge = charge_out / total if total > 0.0 else 0.0
         self._capacity_as = total
-        self.discharged_ah = sum(g.discharged_ah for g in groups) / len(groups)
-        self.state_of_health = min(g.state_of_health for g in groups)
-        self.cell_current_a = groups[0].cell_current_a if not any(self.bleeding) else \
-            max(g.cell_current_a for g in groups)
+        self.discharged_ah = discharged / len(self.groups)
+        self.state_of_health = health
+        self.cell_current_a = self.groups[0].cell_current_a
 
     @property
     def temperature_c(self):
@@ -160,15 +173,22 @@ class GroupedPack(BatteryModel):
             current = 0.0
             if self.status not in (Status.FULL, Status.EMPTY):
                 self.status = Status.NOT_CHARGING
-        bleeds = self._bleeds(current)
-        for group, bleed in zip(groups, bleeds):
-            group.status = Status.CHARGING if current > 0.0 else Status.DISCHARGING
-            group.cut_off = None
-            group.charger_fault = False
-            group._advance(dt_s, current - bleed)
-            if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
-                self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
-        self.bleeding = [bool(b) for b in bleeds]
+        # the groups follow the string (their own cut-off and charger fault never act: the pack's do)
+        status = Status.CHARGING if current > 0.0 else Status.DISCHARGING
+        if current > 0.0 and self.params.balancing:
+            bleeds = self._bleeds(current)
+            for group, bleed in zip(groups, bleeds):
+                group.status = status
+                group._advance(dt_s, current - bleed)
+                if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
+                    self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
+            self.bleeding = [bool(b) for b in bleeds]
+        else:
+            for group in groups:
+                group.status = status
+                group._advance(dt_s, current)
+            if any(self.bleeding):
+                self.bleeding = [False] * len(groups)
         self.throughput_as += current / p.cells_parallel * dt_s
         self._sync()
         self.cell_current_a = current / p.cells_parallel
@@ -177,7 +197,8 @@ class GroupedPack(BatteryModel):
 
     def _string_charge_current(self, dt_s, demand):
         """The charge current the highest group allows (CC-CV of every group; the least wins), or 0 and
-        FULL at the taper's end."""
+        FULL at the taper's end. In the CC phase every group takes the demand: the groups are tried
+        (and their steps undone) only once one of them is near its charge voltage."""
         if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
             self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
             return 0.0
@@ -185,10 +206,13 @@ class GroupedPack(BatteryModel):
         if demand / p.cells_parallel > p.cell_max_charge_current_a:
             self._disconnect(CutOff.OVER_CURRENT, Status.NOT_CHARGING)
             return 0.0
+        self._voltages = voltages = [g.cell_voltage_v for g in self.groups]   # _bleeds reads them too
+        if max(voltages) < p.cell_charge_voltage_v - CV_MARGIN_V:
+            return demand   # the CC phase: far from every group's charge voltage
         allowed = []
         for group in self.groups:   # each group's CC-CV current for this step, tried and undone
             saved = group._state()
-            group.status, group.cut_off, group.charger_fault = Status.CHARGING, None, False
+            group.status = Status.CHARGING
             group._advance(dt_s, demand)
             allowed.append(group.cell_current_a * p.cells_parallel if group.status is Status.CHARGING else 0.0)
             group._restore(saved)
@@ -207,7 +231,7 @@ class GroupedPack(BatteryModel):
         balancing = self.params.balancing
         if not balancing or current <= 0.0:
             return [0.0] * len(self.groups)
-        voltages = [g.cell_voltage_v for g in self.groups]
+        voltages = self._voltages   # as the step began (_string_charge_current)
         if max(voltages) < balancing['start_voltage_v']:
             return [0.0] * len(self.groups)
         lowest = min(voltages)
