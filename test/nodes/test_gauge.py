@@ -1,0 +1,77 @@
+#!/usr/bin/python3
+"""rostest: a pack of differing groups and a fuel gauge that can be wrong (interface Part 5), on ROS 1:
+cell arrays per group, the gauge's view on battery_status and the truth on battery_simulator/state,
+set_state's gauge_error, the fault gauge_stuck, the cell diagnostics."""
+import math
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+from sensor_msgs.msg import BatteryState
+
+from battery_simulator.msg import BatterySimState
+from battery_simulator.srv import InjectFault
+from rostest_helpers import Recorder, SetStateProxy, wait_for
+
+NAN = math.nan
+
+
+class TestGauge(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_gauge')
+        cls.status = Recorder('battery_status', BatteryState)
+        cls.state = Recorder('battery_simulator/state', BatterySimState)
+        cls.diagnostics = Recorder('/diagnostics', DiagnosticArray)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
+        cls.set_state.wait_for_service(20.0)
+        cls.inject = rospy.ServiceProxy('battery_simulator/inject_fault', InjectFault)
+        wait_for(lambda: cls.status.count() > 0 and cls.state.count() > 0, 30.0, 'battery_status and the state')
+
+    def pair(self):
+        """(read 0-100, true 0-100) of a state message arriving from now."""
+        mark = self.state.count()
+        wait_for(lambda: self.state.count() > mark, 5.0, 'a new state')
+        msg = self.state.latest()
+        return 100.0 * msg.battery.percentage, msg.true_percentage
+
+    def test_1_every_group_its_own_cell_voltage_and_the_cell_diagnostics(self):
+        msg = self.status.latest()
+        self.assertEqual(len(msg.cell_voltage), 7)
+        self.assertEqual(len(msg.cell_temperature), 7)
+        self.assertGreater(max(msg.cell_voltage) - min(msg.cell_voltage), 1e-4, list(msg.cell_voltage))
+        wait_for(lambda: self.diagnostics.count() > 0, 10.0, 'diagnostics')
+        status = next(s for s in self.diagnostics.latest().status if s.name.endswith(': Battery'))
+        values = {v.key: v.value for v in status.values}
+        self.assertGreater(float(values['Cell Imbalance (mV)']), 0.0)
+        self.assertLess(float(values['Cell Voltage Min (V)']), float(values['Cell Voltage Max (V)']))
+
+    def test_2_the_robot_reads_the_gauge_and_set_state_moves_it(self):
+        read, true = self.pair()
+        self.assertGreater(read, true + 1.0, 'the aged gauge starts 2 points high')
+        self.assertTrue(self.set_state(percentage=60.0, gauge_error=-4.0).success)
+        read, true = self.pair()
+        self.assertAlmostEqual(read, true - 4.0, delta=0.3)
+        refused = self.set_state(gauge_error=200.0)
+        self.assertFalse(refused.success)
+        self.assertIn('gauge_error', refused.message)
+
+    def test_3_a_stuck_gauge_freezes_what_the_robot_reads(self):
+        self.assertTrue(self.inject('gauge_stuck', True).success)
+        try:
+            read_before, true_before = self.pair()
+            deadline = time.monotonic() + 10.0
+            read, true = read_before, true_before
+            while abs(true - true_before) <= 0.5 and time.monotonic() < deadline:
+                read, true = self.pair()
+            self.assertGreater(abs(true - true_before), 0.5, 'the truth moves on')
+            self.assertAlmostEqual(read, read_before, delta=1e-4, msg='what the robot reads stays')
+        finally:
+            self.inject('gauge_stuck', False)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('battery_simulator', 'gauge', TestGauge)
