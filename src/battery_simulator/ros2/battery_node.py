@@ -121,12 +121,17 @@ class OneBattery:
                       'ROS time' if self.battery.sim_time else 'time x%g' % self.battery.time_scale)
 
 
-def publish_diagnostics(node, status_fronts):
-    """Every status front's "Battery" status in one DiagnosticArray on /diagnostics, twice a second."""
+def diagnostics_publisher(node, status_fronts):
+    """publish(): every status front's "Battery" status in one DiagnosticArray on /diagnostics."""
     publisher = node.create_publisher(DiagnosticArray, '/diagnostics', 10)
 
     def publish():
         array = DiagnosticArray(status=[front.diagnostic_status() for front in status_fronts])
         array.header.stamp = node.get_clock().now().to_msg()
         publisher.publish(array)
-    return node.create_timer(DIAGNOSTIC_PERIOD_S, publish, clock=steady_clock())
+    return publish
+
+
+def publish_diagnostics(node, status_fronts):
+    """The diagnostics twice a second, on a timer of their own (one battery)."""
+    return node.create_timer(DIAGNOSTIC_PERIOD_S, diagnostics_publisher(node, status_fronts), clock=steady_clock())

@@ -10,7 +10,8 @@ own ``charging`` and live parameters, the action, the services, ``cmd_vel``,
 and the diagnostics status ``<name>/battery_state_pub: Battery``. One timer
 steps every battery, one spreads the ``battery_status`` publications over
 their period (a burst of hundreds of reliable messages would delay the last
-by seconds), and ``/battery_fleet/states`` (BatteryFleetState) carries the
+by seconds), all from one timer at ``update_rate`` (default 1 Hz; a change still acts
+at once), and ``/battery_fleet/states`` (BatteryFleetState) carries the
 whole fleet at ``fleet_rate`` Hz.
 
 :Parameters of battery_fleet (read-only):
@@ -37,16 +38,19 @@ from battery_simulator.core.parameters import is_number
 from battery_simulator.core.state_file import FleetStateFile
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.battery_front import BatteryFront
-from battery_simulator.ros2.battery_node import (STARTUP_SETTINGS, TIME_SCALE, declare_live, declare_mode, load_config,
-                                                 make_battery, publish_diagnostics, read_publisher_settings,
-                                                 steady_clock)
+from battery_simulator.ros2.battery_node import (STARTUP_SETTINGS, TIME_SCALE, declare_live, declare_mode,
+                                                 diagnostics_publisher, load_config, make_battery,
+                                                 read_publisher_settings, steady_clock)
 from battery_simulator.ros2.node_log import NodeLog
 from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
                                             parameter_name, spin)
 from battery_simulator.ros2.status_front import StatusFront
 
 FLEET_STATES = '/battery_fleet/states'
-PUBLISH_TICK_S = 0.05        # the spread battery_status publications: a slice of the fleet every tick
+FLEET_DIAGNOSTIC_PERIOD_S = 1.0   # a fleet's DiagnosticArray (every robot's status) once a second
+#: the fleet host's model updates (and its one timer) per second: every executor wake-up rebuilds the wait set of
+#: every robot (the host's main cost), so once a second (feedback is due once a second; changes act at once)
+FLEET_UPDATE_RATE_HZ = 1.0
 DISCOVERY_S = 1.0            # how long to look for another process serving one of our robots
 
 
@@ -63,7 +67,8 @@ class FleetSettings:
             ('prefix', 'robot', 'with a count: names <prefix><first + k>'),
             ('first', 0, 'with a count: the first robot number'),
             ('fleet_rate', 1.0, '/battery_fleet/states per second'))}
-        self.battery = declare_settings(node, STARTUP_SETTINGS + (TIME_SCALE,))
+        self.battery = declare_settings(node, STARTUP_SETTINGS + (TIME_SCALE,),
+                                        defaults={'update_rate': FLEET_UPDATE_RATE_HZ})
         self.charging = declare_mode(node)
         self.publisher = read_publisher_settings(node)
         staggered = not _given(node, 'initial_percentage')
@@ -142,27 +147,35 @@ class FleetHost:
                        for spec in settings.robots]
         for robot in self.robots:
             robot.front.update()
+        # One timer does everything, at update_rate: each wake-up of the executor rebuilds its wait set over
+        # every robot's entities (most of its cost with a hundred nodes), so the host wakes as seldom as it can.
         self._period_s = 1.0 / settings.publisher['rate']
         start = time.monotonic()
         count = len(self.robots)
         self._due = [start + self._period_s * k / count for k in range(count)]   # spread over one period
-        node.create_timer(1.0 / settings.battery['update_rate'], self._update, clock=steady_clock())
-        node.create_timer(min(PUBLISH_TICK_S, self._period_s), self._publish_due, clock=steady_clock())
         self._states_pub = node.create_publisher(BatteryFleetState, FLEET_STATES, 10)
-        node.create_timer(1.0 / settings.fleet_rate, self._publish_states, clock=steady_clock())
-        publish_diagnostics(node, [robot.status for robot in self.robots])
+        self._states_period_s = 1.0 / settings.fleet_rate
+        self._states_due = start
+        self._diagnostics = diagnostics_publisher(node, [robot.status for robot in self.robots])
+        self._diagnostics_due = start
+        node.create_timer(1.0 / settings.battery['update_rate'], self._tick, clock=steady_clock())
 
-    def _update(self):
+    def _tick(self):
+        """Update every battery; publish the battery_status that are due, the diagnostics and the fleet's states."""
         for robot in self.robots:
             robot.front.update()
         self._store.write_if_due()
-
-    def _publish_due(self):
         now = time.monotonic()
         for index, robot in enumerate(self.robots):
             if now >= self._due[index]:
                 robot.status.publish_once()
                 self._due[index] = max(self._due[index] + self._period_s, now)
+        if now >= self._diagnostics_due:
+            self._diagnostics()
+            self._diagnostics_due = max(self._diagnostics_due + FLEET_DIAGNOSTIC_PERIOD_S, now)
+        if now >= self._states_due:
+            self._publish_states()
+            self._states_due = max(self._states_due + self._states_period_s, now)
 
     def _publish_states(self):
         if self._states_pub.get_subscription_count() == 0:
