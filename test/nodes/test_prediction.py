@@ -167,6 +167,15 @@ class TestPrediction(unittest.TestCase):
             self.assertAlmostEqual(real_s, predicted.charge_time_s, delta=0.02 * predicted.charge_time_s)
         self.assertGreater(to_full.charge_time_s, to_90.charge_time_s + 600.0, 'the CV taper')
 
+    def test_charge_to_percentage_left_out_means_no_charge(self):
+        """A message's charge_to_percentage defaults to 0: no charge, as NaN (it answered "charged in 0 s")."""
+        self.start_at(70.0)
+        response = self.predict(PredictRequest(duration_s=[600.0], power_w=[5.0]))
+        self.assertTrue(response.success, response.message)
+        self.assertTrue(math.isnan(response.charge_time_s), response.charge_time_s)
+        self.assertNotIn('charged', response.message)
+        self.assertGreater(self.ask(duration_s=[600.0], charge_to_percentage=90.0).charge_time_s, 60.0)
+
     # -- bad requests ----------------------------------------------------------------
 
     def test_bad_requests_are_refused_naming_the_field_and_nothing_changes(self):
@@ -184,6 +193,11 @@ class TestPrediction(unittest.TestCase):
             response = self.predict(PredictRequest(**dict(dict(charge_to_percentage=NAN), **fields)))
             self.assertFalse(response.success, '%r accepted' % fields)
             self.assertIn(field, response.message)
+        # more segments than the limit: refused naming it, before the plan is unpacked (1 s each: 28 h, < 7 days)
+        response = self.predict(PredictRequest(duration_s=[1.0] * 100001, charge_to_percentage=NAN))
+        self.assertFalse(response.success, '100001 segments accepted')
+        self.assertEqual(response.message, 'duration_s has 100001 entries, which is invalid: a plan has at most '
+                                           '100000 segments (a day at one-second resolution)')
         heavy = self.ask(duration_s=[600.0, 3000.0], power_w=[50.0, 20.0], speed_mps=[0.2, 0.0],
                          charge_to_percentage=100.0)
         self.assertFalse(heavy.feasible)
