@@ -222,6 +222,22 @@ class TestHardening(unittest.TestCase):
             self.set_charging(False)
             self.status.wait_new(seen, lambda m: m.power_supply_status == DISCHARGING, 1.0, 'the last state')
 
+    def test_goal_ping_pong_is_logged_at_most_about_once_a_second(self):
+        """50 goals a second, charge and discharge in turn, for 2 s: the goal lines are throttled (it was
+        about 110 lines a second), every goal still ends."""
+        logged = self.log.count()
+        started = time.monotonic()
+        rate = rospy.Rate(50)
+        for k in range(100):
+            self.client.send_goal(battery_simGoal(charge_state=k % 2 == 0))
+            rate.sleep()
+        elapsed_s = time.monotonic() - started
+        self.client.cancel_goal()
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(10.0)), 'the last goal ended')
+        lines = self.server_lines(logged, lambda m: 'goal: ' in m.msg or 'goal ended: ' in m.msg)
+        self.assertGreater(len(lines), 0, 'goals are still logged')
+        self.assertLessEqual(len(lines), 2 * (elapsed_s + 3), [m.msg for m in lines])
+
     def flap_contact(self, seconds):
         rate = rospy.Rate(500)
         deadline = time.monotonic() + seconds
