@@ -4,7 +4,19 @@ from battery_simulator.core.battery_log import BatteryLog
 
 
 class NodeLog(BatteryLog):
-    """An rclpy logger's lines for one battery."""
+    """An rclpy logger's lines for one battery.
+
+    rclpy ties each call site of a logger to one severity ("Logger severity cannot be changed between
+    calls"), so each severity is written from a function of its own, never from BatteryLog's one line.
+    """
 
     def __init__(self, logger, prefix='', progress=True):
-        super().__init__(logger.info, logger.warning, logger.error, prefix, progress)
+        def info(text):
+            logger.info(text)
+
+        def warn(text):
+            logger.warning(text)
+
+        def error(text):
+            logger.error(text)
+        super().__init__(info, warn, error, prefix, progress)
