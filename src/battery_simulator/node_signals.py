@@ -47,9 +47,23 @@ def _exit_now():
     os._exit(0)
 
 
+def _quiet_once_stopping(hook):
+    """An exception hook that ends the process quietly once a stop signal came: the node's main thread may
+    meet what rospy's shutdown closed under it (a publish to a closed topic) and nothing is left to do."""
+    def quiet(*args):
+        if _stopping.is_set():
+            _exit_now()
+        hook(*args)
+    return quiet
+
+
 def end_nodes_on_signals():
     """Install the handlers in a node's process (idempotent; nothing in a test or a library user's process)."""
     if os.path.basename(sys.argv[0] if sys.argv else '') in NODE_SCRIPTS and \
             threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, _stop)
         signal.signal(signal.SIGTERM, _stop)
+        if not getattr(sys.excepthook, 'quiet_once_stopping', False):
+            sys.excepthook = _quiet_once_stopping(sys.excepthook)
+            sys.excepthook.quiet_once_stopping = True
+            threading.excepthook = _quiet_once_stopping(threading.excepthook)

@@ -128,6 +128,8 @@ class TestPredictionStorm(unittest.TestCase):
         gaps_from = self.neighbour.count()
         delays = self.contact_delays()
         own = rospy.ServiceProxy(PREDICT % 'robot1', Predict)(one_hour_plan(99))
+        # robot2 watched for at least five of its 1 Hz periods under the storm
+        wait_for(lambda: self.neighbour.count() >= gaps_from + 6, 20.0, 'robot2 publishing under the storm')
         arrivals = [self.neighbour.arrival(k) for k in range(gaps_from, self.neighbour.count())]
         counts = self.end_storm(storm_process)
         rospy.loginfo('under the storm (%s): robot1 contact -> status median %.0f ms, max %.0f ms; robot2 longest '
@@ -135,7 +137,7 @@ class TestPredictionStorm(unittest.TestCase):
                       1000 * max(delays), max(b - a for a, b in zip(arrivals, arrivals[1:])), own.message)
         self.assertGreater(counts['ok'], THREADS, 'the storm was answered all along: %s' % counts)
         self.assertLess(statistics.median(delays), 0.2, 'contact -> status under the storm: %s s' % delays)
-        self.assertGreater(len(arrivals), 2, 'robot2 published')
+        self.assertGreater(len(arrivals), 5, 'robot2 published')
         self.assertLess(max(b - a for a, b in zip(arrivals, arrivals[1:])), 1.5, 'robot2 battery_status at 1 Hz')
         self.assertTrue(own.success, 'robot1 predicts too: %s' % own.message)
 
