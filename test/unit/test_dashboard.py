@@ -188,6 +188,53 @@ def test_a_fleet_host_names_the_host_and_gives_a_first_value():
     assert dashboard.snapshot(1.0)[0]['fields']['percentage'] == '41.0 %'
 
 
+def fleet_entries(names, level, stamp):
+    return [(name, dict(battery(percentage=level), stamp=stamp)) for name in names]
+
+
+def test_fleet_hosts_on_one_topic_are_merged_by_name_and_keep_their_robots_fresh():
+    """Every host publishes its own robots on /battery_fleet/states: host 1's A, B and host 2's C, D
+    alternate on the one topic; none of the four leaves or goes stale, each names its own host."""
+    dashboard = DashboardModel(history_s=60)
+    for k in range(20):   # 1 Hz from each host, 10 s
+        t = 0.5 * k
+        if k % 2 == 0:
+            dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A', 'B'], 0.5, 1000.0 + t), t)
+        else:
+            dashboard.on_fleet_message('/', '/battery_fleet_1', fleet_entries(['C', 'D'], 0.3, 1000.0 + t), t)
+        dashboard.tick(t)
+    views = {view['topic']: view for view in dashboard.snapshot(10.0)}
+    assert sorted(views) == ['/A/battery_status', '/B/battery_status', '/C/battery_status', '/D/battery_status']
+    assert not any(view['stale'] for view in views.values()), [v['topic'] for v in views.values() if v['stale']]
+    assert [views['/%s/battery_status' % name]['host'] for name in 'ABCD'] == [
+        '/battery_fleet', '/battery_fleet', '/battery_fleet_1', '/battery_fleet_1']
+    assert views['/C/battery_status']['fields']['percentage'] == '30.0 %'
+    # values are made only when they count (a host of 1000 robots whose own topics speak costs no conversion)
+    dashboard.on_battery('/A/battery_status', dict(battery(percentage=0.52), stamp=2000.0), 10.1)
+    made = []
+    dashboard.on_fleet('/A/battery_status', '/battery_fleet', lambda: made.append(1) or battery(), 10.2)
+    assert made == [] and dashboard.snapshot(10.2)[0]['fields']['percentage'] == '52.0 %'   # its own topic rules
+
+
+def test_a_fleet_host_repeating_a_silent_robots_last_message_does_not_keep_it_fresh():
+    """A host lists each robot's latest BatteryState; when the robot's own topic goes quiet (a sensor
+    dropout) the host repeats the same message: it goes stale, leaves after history_s, and a repeat of
+    that same message does not bring it back; a new one does."""
+    dashboard = DashboardModel(history_s=20)
+    topic = '/A/battery_status'
+    for k in range(5):
+        dashboard.on_battery(topic, dict(battery(), stamp=100.0 + k), float(k))
+        dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A'], 0.6, 100.0 + k), k + 0.5)
+    for k in range(5, 40):   # the robot's own topic is silent: the host repeats its last message
+        dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A'], 0.6, 104.0), float(k))
+        changed, removed = dashboard.tick(float(k))
+        if k == 8:
+            assert dashboard.records[topic].stale(8.0)
+    assert topic not in dashboard.records and dashboard.snapshot(40.0) == []
+    dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A'], 0.6, 140.0), 41.0)   # a new one
+    assert [(view['topic'], view['stale']) for view in dashboard.snapshot(41.0)] == [(topic, False)]
+
+
 def test_snapshot_is_sorted_by_topic():
     dashboard = DashboardModel(history_s=600)
     for topic in ('/robot2/battery_status', '/robot10/battery_status', '/alpha/battery_status'):

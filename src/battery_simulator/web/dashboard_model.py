@@ -163,6 +163,11 @@ def namespace_of(name):
     return name[:name.rstrip('/').rfind('/') + 1] or '/'
 
 
+def _same_stamp(stamp, shown):
+    """A known header stamp (not 0: a publisher that leaves it unset) equal to the one shown."""
+    return is_number(stamp) and stamp > 0.0 and stamp == shown
+
+
 def fleet_battery_topic(host_namespace, robot_name):
     """The battery_status topic of robot ``robot_name`` of a fleet host in ``host_namespace``."""
     return host_namespace + robot_name.strip('/') + '/battery_status'
@@ -186,7 +191,9 @@ class BatteryRecord:
         self.host = ''                 # the fleet host that serves it, if any
         self.has_controls = False      # the simulator's services exist in its namespace
         self.discovered = now
-        self.last_message = None       # wall time of the latest BatteryState
+        self.last_message = None       # wall time of the latest BatteryState (its own or a fleet host's)
+        self.own_last = None           # wall time of the latest on its own topic
+        self.stamp = None              # header stamp (s) of the latest BatteryState shown
         self.messages = 0
         self._intervals = collections.deque(maxlen=PERIOD_SAMPLES)
         self.history = collections.deque()   # (time, percentage %, voltage, current, temperature)
@@ -202,11 +209,16 @@ class BatteryRecord:
         last = self.last_message if self.last_message is not None else self.discovered
         return now - last >= stale_after_s(self.period_s())
 
+    def own_topic_speaks(self, now):
+        """Its own topic said something within the stale time (a fleet host's copy then adds nothing)."""
+        return self.own_last is not None and now - self.own_last < stale_after_s(self.period_s())
+
     def on_battery(self, values, now, history_step_s):
         if self.last_message is not None and now > self.last_message:
             self._intervals.append(now - self.last_message)
         self.last_message = now
         self.messages += 1
+        self.stamp = values.pop('stamp', None)
         self.power_supply_status = values.pop('power_supply_status', 0)
         self.power_supply_health = values.pop('power_supply_health', 0)
         self.location = values.pop('location', '')
@@ -283,7 +295,9 @@ class DashboardModel:
         self._changed = set()
         self._removed = set()
         self._stale = set()
-        self._silenced = set()   # dropped for silence: back only with a message, not by being advertised
+        #: dropped for silence -> the header stamp of its last message: back only with a new message, not by
+        #: being advertised nor by a fleet host repeating that last message
+        self._silenced = {}
 
     def _record(self, topic, now, changed=True):
         record = self.records.get(topic)
@@ -306,8 +320,10 @@ class DashboardModel:
 
     def on_battery(self, topic, values, now):
         """A BatteryState as a dict: BATTERY_FIELDS, power_supply_status/health, location, serial_number."""
-        self._silenced.discard(topic)
-        self._record(topic, now).on_battery(dict(values), now, self.history_step_s)
+        self._silenced.pop(topic, None)
+        record = self._record(topic, now)
+        record.on_battery(dict(values), now, self.history_step_s)
+        record.own_last = now
 
     def on_level_topic(self, topic, which, active, now):
         """battery_low (which='low') or battery_critical ('critical') of the battery ``topic``."""
@@ -328,15 +344,29 @@ class DashboardModel:
         record.sim = sim
 
     def on_fleet(self, topic, host, values, now):
-        """One battery of a fleet host's states: names its host; gives a first value before its own topic."""
-        self._silenced.discard(topic)
-        record = self._record(topic, now, changed=False)
-        if record.host != host:
+        """One battery of a fleet host's states: names its host (the node that published it); its values
+        count as a message while the battery's own topic is silent (not connected yet, gone, or none at
+        all), unless they repeat the message already shown (the same header stamp: a host lists its
+        robot's latest BatteryState, also after that robot's own topic went quiet). ``values``: the dict
+        (with 'stamp') or a function that makes it (called only when needed)."""
+        record = self.records.get(topic)
+        if record is None or not record.own_topic_speaks(now):
+            values = values() if callable(values) else dict(values)
+            shown = record.stamp if record is not None and record.last_message is not None else \
+                self._silenced.get(topic)
+            if not _same_stamp(values.get('stamp'), shown):
+                self._silenced.pop(topic, None)
+                record = self._record(topic, now)
+                record.on_battery(values, now, self.history_step_s)
+        if record is not None and record.host != host:
             record.host = host
             self._changed.add(topic)
-        if record.last_message is None:
-            record.on_battery(dict(values), now, self.history_step_s)
-            self._changed.add(topic)
+
+    def on_fleet_message(self, host_namespace, host, entries, now):
+        """A BatteryFleetState from ``host`` (its publisher): [(robot name, values), ...] merged by name
+        with what other hosts said (every host publishes its own robots on the one topic)."""
+        for name, values in entries:
+            self.on_fleet(fleet_battery_topic(host_namespace, name), host, values, now)
 
     def tick(self, now, views=True):
         """Trim histories, drop batteries silent for ~history_s, find stale changes.
@@ -348,7 +378,7 @@ class DashboardModel:
             last = record.last_message if record.last_message is not None else record.discovered
             if now - last > self.history_s:
                 del self.records[topic]
-                self._silenced.add(topic)
+                self._silenced[topic] = record.stamp
                 self._changed.discard(topic)
                 self._removed.add(topic)
                 self._stale.discard(topic)
