@@ -9,7 +9,9 @@ rebinding, cross-site requests). ``/api/control`` exists only with controls
 on, and calls nothing but set_state, set_charging and inject_fault with
 checked values.
 """
+import collections
 import json
+import logging
 import math
 import os
 import re
@@ -43,7 +45,9 @@ CONTROL_ACTIONS = ('set_state', 'set_charging', 'inject_fault')
 SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE = 'ok', 'refused', 'unreachable'
 MAX_URI_BYTES = 8192            # longer: 414 (the server reads headers up to MAX_HEADER_BYTES to say so)
 MAX_HEADER_BYTES = 1024 * 1024
-REFUSED_LOG_PERIOD_S = 10.0
+REQUEST_LOG_PERIOD_S = 10.0     # refused or failed requests: one line, then their count every this
+#: tornado's loggers of its own warnings and errors (the node writes them to the ROS log)
+TORNADO_LOGGERS = ('tornado.application', 'tornado.general')
 
 
 # -- the checks (plain functions, unit-tested) -----------------------------------------
@@ -183,11 +187,12 @@ class _Guard:
     security headers."""
 
     def prepare(self):
+        # no log message in these errors: tornado would say each (a probe sends hundreds); RequestLog says them
         if len(self.request.uri) > MAX_URI_BYTES:
-            raise tornado.web.HTTPError(414, 'the request URI is longer than %d bytes' % MAX_URI_BYTES)
+            raise tornado.web.HTTPError(414)
         if not request_allowed(self.request.headers.get('Host'), self.request.headers.get('Origin'),
                                self.settings['own_addresses']):
-            raise tornado.web.HTTPError(403, 'Host or Origin is not this dashboard')
+            raise tornado.web.HTTPError(403)
 
     def set_default_headers(self):
         for name, value in SECURITY_HEADERS.items():
@@ -322,35 +327,66 @@ class LiveSocket(_Guard, tornado.websocket.WebSocketHandler):
 
 
 class RequestLog:
-    """Tornado's request log: nothing for success, a WARN for a failure, and the refused requests (a
-    foreign Host or Origin, 403) counted and said at most every REFUSED_LOG_PERIOD_S (a probe sends
-    hundreds). ``warn(text)`` writes a line."""
+    """Tornado's request log: nothing for success; a refused or failed request (status 400 or more) is
+    said at once when none was said in the last REQUEST_LOG_PERIOD_S, else counted and said in one line
+    at the end of that period (a probe sends hundreds: 403 for a foreign Host or Origin, 404, 414).
+    ``warn(text)`` writes a line; ``call_later(delay_s, function)`` runs the count's line later (by
+    default on the current IOLoop)."""
 
-    def __init__(self, warn, clock=time.monotonic):
-        self._warn, self._clock = warn, clock
-        self._refused = 0
-        self._said_at = -REFUSED_LOG_PERIOD_S
+    def __init__(self, warn, call_later=None):
+        self._warn = warn
+        self._call_later = call_later or (lambda delay_s, function:
+                                          tornado.ioloop.IOLoop.current().call_later(delay_s, function))
+        self._counts = collections.Counter()   # status -> requests not said yet
+        self._last = ''
+        self._quiet = False                    # within a period after a line: count, say at its end
 
     def __call__(self, handler):
         status = handler.get_status()
         if status < 400:
             return
         request = handler.request
-        if status != 403:
-            self._warn('%d %s %s' % (status, request.method, request.uri[:200]))
+        text = '%d %s %s' % (status, request.method, request.uri[:200])
+        if status == 403:
+            text += ' (Host %r, Origin %r)' % (request.headers.get('Host'), request.headers.get('Origin'))
+        if self._quiet:
+            self._counts[status] += 1
+            self._last = text
             return
-        self._refused += 1
-        now = self._clock()
-        if now - self._said_at >= REFUSED_LOG_PERIOD_S:
-            self._warn('refused %d request(s) with a foreign Host or Origin (403) in the last %.0f s; last: %s %s '
-                       'Host=%r' % (self._refused, min(now - self._said_at, 1e9), request.method, request.uri[:200],
-                                    request.headers.get('Host')))
-            self._refused, self._said_at = 0, now
+        self._warn('request refused: %s' % text if status < 500 else 'request failed: %s' % text)
+        self._start_period()
+
+    def _start_period(self):
+        self._quiet = True
+        self._call_later(REQUEST_LOG_PERIOD_S, self._end_period)
+
+    def _end_period(self):
+        if not self._counts:
+            self._quiet = False
+            return
+        self._warn('%d more request(s) refused or failed in the last %.0f s (%s); the last: %s' % (
+            sum(self._counts.values()), REQUEST_LOG_PERIOD_S,
+            ', '.join('%d x %d' % (count, status) for status, count in sorted(self._counts.items())), self._last))
+        self._counts.clear()
+        self._start_period()
 
 
-def make_app(hub, host, port, warn=None):
+def bridge_tornado_logs(warn, error):
+    """Tornado's own warnings and errors (a handler that failed, a malformed request) to ``warn(text)`` /
+    ``error(text)``; its access log off (RequestLog says what matters)."""
+    class Bridge(logging.Handler):
+        def emit(self, record):
+            (error if record.levelno >= logging.ERROR else warn)(self.format(record))
+    for name in TORNADO_LOGGERS:
+        logger = logging.getLogger(name)
+        logger.addHandler(Bridge(logging.WARNING))
+        logger.propagate = False
+    logging.getLogger('tornado.access').setLevel(logging.CRITICAL)
+
+
+def make_app(hub, host, port, warn=None, request_log=None):
     """The tornado application: pages, static files, Chart.js, the API and /live. ``warn(text)``: where
-    failed and refused requests are said (throttled for the refused)."""
+    failed and refused requests are said (a RequestLog, or ``request_log``)."""
     return tornado.web.Application([
         (r'/', PageHandler, {'page': 'index.html'}),
         (r'/battery', PageHandler, {'page': 'battery.html'}),
@@ -361,7 +397,7 @@ def make_app(hub, host, port, warn=None):
         (r'/api/control', ControlHandler),
         (r'/live', LiveSocket),
     ], hub=hub, own_addresses=own_addresses(host, port), websocket_ping_interval=20,
-        default_handler_class=NotFoundHandler, log_function=RequestLog(warn or _no_line))
+        default_handler_class=NotFoundHandler, log_function=request_log or RequestLog(warn or _no_line))
 
 
 def _no_line(text):

@@ -23,7 +23,6 @@ callbacks write the model under the hub's lock; the web thread reads it.
 """
 import errno
 import functools
-import logging
 import math
 import os
 import threading
@@ -41,7 +40,7 @@ from battery_simulator.ros.startup import (StartupError, checked_param, exit_on_
                                            signals_held)
 from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (CHART_JS_DIR, SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
-                                                make_app, server_options, start_pushing)
+                                                bridge_tornado_logs, make_app, server_options, start_pushing)
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover, namespace_of
 
 SERVICE_TIMEOUT_S = 2.0
@@ -178,20 +177,9 @@ def _shown(arguments):
                      for key, value in sorted(arguments.items()))
 
 
-class _ToRosLog(logging.Handler):
-    """Tornado's warnings and errors (a handler that failed, a bad request) as ROS log lines."""
-
-    def emit(self, record):
-        (rospy.logerr if record.levelno >= logging.ERROR else rospy.logwarn)('battery_dashboard: %s',
-                                                                              self.format(record))
-
-
 def main():
-    for name in ('tornado.application', 'tornado.general'):
-        logger = logging.getLogger(name)
-        logger.addHandler(_ToRosLog(logging.WARNING))
-        logger.propagate = False
-    logging.getLogger('tornado.access').setLevel(logging.CRITICAL)   # RequestLog says what matters
+    bridge_tornado_logs(lambda text: rospy.logwarn('battery_dashboard: %s', text),
+                        lambda text: rospy.logerr('battery_dashboard: %s', text))
     with signals_held():
         settings = init_node('battery_dashboard', read_settings)
         hub = Hub(settings['history_s'], settings['allow_control'])
