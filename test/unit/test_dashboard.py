@@ -422,14 +422,37 @@ def test_a_stalled_page_is_closed_rather_than_buffered_for():
 
 
 def test_numbers_no_one_can_read_are_shown_short_and_marked():
-    assert model.number_text(3.4e38, 2, 'V', model.PLAUSIBLE['voltage']) == '3.4e+38 V (out of range)'
+    assert model.number_text(3.4e38, 2, 'V', 'voltage') == '3.4e+38 V (out of range)'
     assert model.percentage_text(-1e9) == '-1e+11 % (out of range)'
     assert model.percentage_text(0.632) == '63.2 %' and model.number_text(12.31, 2, 'V') == '12.31 V'
+    assert model.number_text(0.0, 2, 'V', 'voltage') == '0.00 V (out of range)'   # no pack reads 0 V
+    assert model.number_text(-1.0, 2, 'V', 'voltage') == '-1.00 V (out of range)'
+    assert model.number_text(2500.0, 2, 'A', 'current') == '2500.00 A (out of range)'
+    assert model.number_text(math.inf, 2, 'V', 'voltage') == '-'
     record = model.BatteryRecord('/r/battery_status', 0.0)
     record.on_battery(battery(percentage=-1e9, voltage=3.4e38), 1.0, 1.0)
     view = record.view(1.0)
     assert view['out_of_range'] == ['percentage', 'voltage'], view['out_of_range']
     assert max(len(text) for text in view['fields'].values()) < 30, view['fields']
+
+
+def test_a_time_remaining_from_absurd_values_is_unknown_and_every_shown_text_is_short():
+    """A charge of 3.4e38 Ah over a sane current made a 40-digit time remaining ('2266...6588 h 48 min');
+    the simulator's cycle count and health are the server's text too, short and marked."""
+    record = model.BatteryRecord('/r/battery_status', 0.0)
+    record.on_battery(battery(charge=3.4e38, current=-1.5), 1.0, 1.0)
+    record.sim = {'cycle_count': 3.4e38, 'state_of_health': -1e9}
+    view = record.view(1.0)
+    assert view['fields']['time_remaining'] == '-', view['fields']
+    assert view['fields']['charge'] == '3.4e+38 Ah (out of range)'
+    assert view['fields']['cycle_count'] == '3.4e+38 (out of range)'
+    assert view['fields']['state_of_health'] == '-1e+11 % (out of range)'
+    assert view['out_of_range'] == ['charge', 'cycle_count', 'state_of_health'], view['out_of_range']
+    assert max(len(text) for text in view['fields'].values()) < 30, view['fields']
+    assert model.duration_text(1e4 * 3600.0) == '> 9999 h' and model.duration_text(7500) == '2 h 05 min'
+    record.sim = {'cycle_count': 12.5, 'state_of_health': 0.93}
+    fields = record.view(1.0)['fields']
+    assert (fields['cycle_count'], fields['state_of_health']) == ('12.50', '93.0 %')
 
 
 def test_a_silent_but_advertised_topic_stays_away_once_dropped():

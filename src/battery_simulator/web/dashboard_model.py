@@ -46,26 +46,38 @@ FAULTS = tuple(sorted(names.FAULTS))
 #: beyond this magnitude a number is shown in scientific notation (3 significant digits): a driver's
 #: 3.4e38 would otherwise be a 40-digit number overflowing the card
 MAX_FIXED = 1e5
-#: what a battery can plausibly report; a value outside is shown marked "out of range"
+#: what a battery can plausibly report, (low, high) inclusive; a value outside is shown marked "out of range"
+#: (a voltage of 0 or below too: no pack reads that; NaN is the message's "not measured")
 PLAUSIBLE = {'percentage': (0.0, 100.0), 'voltage': (0.0, 1000.0), 'current': (-1000.0, 1000.0),
-             'temperature': (-60.0, 150.0), 'charge': (0.0, 1e4), 'capacity': (0.0, 1e4)}
+             'temperature': (-60.0, 150.0), 'charge': (0.0, 1e4), 'capacity': (0.0, 1e4),
+             'cycle_count': (0.0, 1e6), 'state_of_health': (0.0, 100.0)}
+ABOVE_LOW = ('voltage',)   # fields whose low bound itself is out of range
 OUT_OF_RANGE = ' (out of range)'
+MAX_DURATION_H = 9999      # a longer time remaining is shown as "> 9999 h"
 
 
-def number_text(value, digits, unit, plausible=None):
-    """'12.31 V'; '3.4e+38 V' beyond MAX_FIXED; ' (out of range)' appended outside ``plausible``
-    (low, high); '-' for NaN, infinity or nothing."""
+def in_range(field, value):
+    """A finite ``value`` of ``field`` (percentage in %) within PLAUSIBLE."""
+    low, high = PLAUSIBLE[field]
+    return is_number(value) and (low < value if field in ABOVE_LOW else low <= value) and value <= high
+
+
+def number_text(value, digits, unit, field=None):
+    """'12.31 V'; '3.4e+38 V' beyond MAX_FIXED; ' (out of range)' appended outside PLAUSIBLE[field];
+    '-' for NaN, infinity or nothing."""
     if not is_number(value):
         return '-'
-    text = '%.*f %s' % (digits, value, unit) if abs(value) < MAX_FIXED else '%.3g %s' % (value, unit)
-    if plausible is not None and not plausible[0] <= value <= plausible[1]:
+    text = '%.*f' % (digits, value) if abs(value) < MAX_FIXED else '%.3g' % value
+    if unit:
+        text += ' ' + unit
+    if field is not None and not in_range(field, value):
         text += OUT_OF_RANGE
     return text
 
 
 def percentage_text(fraction):
     """BatteryState.percentage (0..1) as '63.2 %'."""
-    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%', PLAUSIBLE['percentage'])
+    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%', 'percentage')
 
 
 def duration_text(seconds):
@@ -77,6 +89,8 @@ def duration_text(seconds):
     minutes = int(round(seconds / 60.0))
     if minutes < 60:
         return '%d min' % minutes
+    if minutes >= 60 * MAX_DURATION_H:
+        return '> %d h' % MAX_DURATION_H
     return '%d h %02d min' % divmod(minutes, 60)
 
 
@@ -117,9 +131,11 @@ def status_name(power_supply_status, sim_charging_state=None, percentage=None):
 def time_remaining_s(values, status):
     """To empty while discharging, to full while charging, at the present current (as the
     simulator computes it); None when the BatteryState lacks charge, capacity or current (a
-    capacity of 0, as many drivers send for "not measured", counts as lacking)."""
+    capacity of 0, as many drivers send for "not measured", counts as lacking) or one of them is out of
+    range."""
     charge, capacity, current = values.get('charge'), values.get('capacity'), values.get('current')
-    if not (is_number(charge) and is_number(current) and is_number(capacity) and capacity > 0.0):
+    if not (in_range('charge', charge) and in_range('current', current) and in_range('capacity', capacity)
+            and capacity > 0.0):
         return None
     if status == 'Discharging' and current < 0.0:
         return charge / -current * 3600.0
@@ -243,6 +259,16 @@ class BatteryRecord:
             return self.sim['time_remaining_s'] if is_number(self.sim['time_remaining_s']) else None
         return time_remaining_s(self.values, status)
 
+    def _shown_numbers(self):
+        """Every number the page shows as text, by PLAUSIBLE's field (percentages in %)."""
+        numbers = {field: self.values.get(field) for field in ('voltage', 'current', 'temperature', 'charge',
+                                                                 'capacity')}
+        for field, source, scale in (('percentage', self.values, 100.0), ('cycle_count', self.sim, 1.0),
+                                     ('state_of_health', self.sim, 100.0)):
+            value = source.get(field)
+            numbers[field] = scale * value if is_number(value) else None
+        return numbers
+
     def view(self, now):
         """What the page shows: text per data-field, classes, raw numbers, extras."""
         values = self.values
@@ -256,18 +282,22 @@ class BatteryRecord:
             'fields': {
                 'percentage': percentage_text(percentage),
                 'status': status,
-                'voltage': number_text(values.get('voltage'), 2, 'V', PLAUSIBLE['voltage']),
-                'current': number_text(values.get('current'), 2, 'A', PLAUSIBLE['current']),
-                'temperature': number_text(values.get('temperature'), 1, '°C', PLAUSIBLE['temperature']),
+                'voltage': number_text(values.get('voltage'), 2, 'V', 'voltage'),
+                'current': number_text(values.get('current'), 2, 'A', 'current'),
+                'temperature': number_text(values.get('temperature'), 1, '°C', 'temperature'),
                 'time_remaining': duration_text(remaining),
-                'charge': number_text(values.get('charge'), 2, 'Ah', PLAUSIBLE['charge']),
-                'capacity': number_text(values.get('capacity'), 2, 'Ah', PLAUSIBLE['capacity']),
+                'charge': number_text(values.get('charge'), 2, 'Ah', 'charge'),
+                'capacity': number_text(values.get('capacity'), 2, 'Ah', 'capacity'),
                 'health': SUPPLY_HEALTH.get(self.power_supply_health, '-'),
+                # the simulator's (battery_simulator/state), '-' where none
+                'cycle_count': number_text(self.sim.get('cycle_count'), 2, '', 'cycle_count'),
+                'state_of_health': number_text(100.0 * self.sim['state_of_health']
+                                               if is_number(self.sim.get('state_of_health')) else None,
+                                               1, '%', 'state_of_health'),
             },
             'level': json_number(100.0 * percentage) if is_number(percentage) else None,
-            'out_of_range': sorted(field for field, (low, high) in PLAUSIBLE.items()
-                                   if is_number(values.get(field)) and not low <= (
-                                       100.0 * values[field] if field == 'percentage' else values[field]) <= high),
+            'out_of_range': sorted(field for field, value in self._shown_numbers().items()
+                                   if is_number(value) and not in_range(field, value)),
             'values': {field: json_number(values.get(field)) for field in ('voltage', 'current', 'temperature')},
             'low': low,
             'critical': critical,
