@@ -401,6 +401,17 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert lines[2] == 'request refused: 404 GET /no/page' and len(later) == 1
 
 
+def test_the_node_warns_at_start_up_when_the_chart_library_is_missing(tmp_path):
+    """(The page's own note: test_dashboard_without_charts.py.) A directory without chart.min.js is missing
+    too (the page loads that file)."""
+    (tmp_path / 'Chart.js').write_text('')
+    problem = app.chart_library_problem(str(tmp_path))
+    assert 'chart library is missing' in problem and 'libjs-chart.js' in problem and str(tmp_path) in problem
+    assert 'missing' in app.chart_library_problem(str(tmp_path / 'nowhere'))
+    (tmp_path / 'chart.min.js').write_text('/* Chart.js */')
+    assert app.chart_library_problem(str(tmp_path)) is None
+
+
 def test_a_stalled_page_is_closed_rather_than_buffered_for():
     import concurrent.futures
     import types

@@ -28,6 +28,7 @@ from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
 
 STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
 CHART_JS_DIR = '/usr/share/javascript/chart.js'
+CHART_JS_FILE = 'chart.min.js'   # what battery.html loads from CHART_JS_DIR
 PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
 CONTROLS_SECTION = re.compile(r'\s*<section class="controls".*?</section>', re.S)
 MAX_UNSENT_PUSHES = 240        # a page this many pushes (a minute) behind is closed, not buffered for
@@ -129,6 +130,16 @@ def control_request(body):
             raise ValueError('active must be true or false')
         return action, {'fault': body['fault'], 'active': body['active']}
     raise ValueError('action must be one of %s' % ', '.join(CONTROL_ACTIONS))
+
+
+def chart_library_problem(directory=None):
+    """The start-up warning when the chart library is missing (None when it is there): the battery pages
+    then say so where the charts would be."""
+    path = os.path.join(directory or CHART_JS_DIR, CHART_JS_FILE)
+    if os.path.isfile(path):
+        return None
+    return ('the chart library is missing (%s; install the Debian package libjs-chart.js): the battery pages say '
+            'so instead of drawing charts' % path)
 
 
 def to_json(data):

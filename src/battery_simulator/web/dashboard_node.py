@@ -24,7 +24,6 @@ callbacks write the model under the hub's lock; the web thread reads it.
 import errno
 import functools
 import math
-import os
 import threading
 import time
 
@@ -39,8 +38,9 @@ from battery_simulator.ros import topics
 from battery_simulator.ros.startup import (StartupError, checked_param, exit_on_startup_error, init_node, is_number,
                                            signals_held)
 from battery_simulator.srv import InjectFault, SetState
-from battery_simulator.web.dashboard_app import (CHART_JS_DIR, SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
-                                                bridge_tornado_logs, make_app, server_options, start_pushing)
+from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
+                                                bridge_tornado_logs, chart_library_problem, make_app, server_options,
+                                                start_pushing)
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover, namespace_of
 
 SERVICE_TIMEOUT_S = 2.0
@@ -189,9 +189,9 @@ def main():
         try:
             make_app(hub, settings['host'], settings['port'], warn=lambda text: rospy.logwarn('battery_dashboard: %s', text)
                      ).listen(settings['port'], address=settings['host'], **server_options())
-            if not os.path.isdir(CHART_JS_DIR):
-                rospy.logwarn('battery_dashboard: the chart library is missing (%s; Debian package libjs-chart.js): '
-                              'the battery pages say so instead of drawing charts', CHART_JS_DIR)
+            problem = chart_library_problem()
+            if problem:
+                rospy.logwarn('battery_dashboard: %s', problem)
         except OSError as error:
             if error.errno == errno.EADDRINUSE:
                 problem = 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (
