@@ -3,6 +3,7 @@ each field, histories, and the web app's Host/Origin check and control validatio
 import json
 import logging
 import math
+import time
 
 import pytest
 
@@ -300,6 +301,8 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
             return app.SERVICE_REFUSED, 'state_of_health = 0.001 is invalid: must be in [0.01, 1]'
         if arguments[2].get('percentage') == 99:
             return app.SERVICE_UNREACHABLE, '/robot3/battery_simulator/set_state: timeout'
+        if arguments[2].get('percentage') == 98:   # a service that hangs
+            time.sleep(1.0)
         return app.SERVICE_OK, 'done'
 
     def host(self):
@@ -360,6 +363,9 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert refused.code == 422, 'a value the service refuses is the user\'s error (4xx), not a 502'
         assert 'state_of_health = 0.001 is invalid' in json.loads(refused.body)['message']
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 99}).code == 502, 'a service gone: 502'
+        self.hub.call_timeout_s = 0.2
+        hung = post({'topic': TOPIC, 'action': 'set_state', 'percentage': 98})
+        assert hung.code == 504 and 'no answer' in json.loads(hung.body)['message'], 'a service that hangs: 504'
 
     def test_a_huge_query_string_gets_414(self):
         response = self.fetch('/battery?topic=' + 'x' * 100000, headers={'Host': self.host()})

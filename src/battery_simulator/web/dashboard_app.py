@@ -10,6 +10,7 @@ on, and calls nothing but set_state, set_charging and inject_fault with
 checked values.
 """
 import collections
+import datetime
 import json
 import logging
 import math
@@ -20,7 +21,9 @@ import threading
 import time
 import urllib.parse
 
+import tornado.gen
 import tornado.ioloop
+import tornado.util
 import tornado.web
 import tornado.websocket
 
@@ -44,6 +47,7 @@ SET_STATE_RANGES = {'percentage': (0.0, 100.0), 'temperature_c': (-60.0, 150.0),
 CONTROL_ACTIONS = ('set_state', 'set_charging', 'inject_fault')
 #: what a control's service call came to (the hub's call_service returns one with its message)
 SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE = 'ok', 'refused', 'unreachable'
+CALL_TIMEOUT_S = 10.0           # a control's service call without an answer by then: 504
 MAX_URI_BYTES = 8192            # longer: 414 (the server reads headers up to MAX_HEADER_BYTES to say so)
 MAX_HEADER_BYTES = 1024 * 1024
 REQUEST_LOG_PERIOD_S = 10.0     # refused or failed requests: one line, then their count every this
@@ -170,6 +174,7 @@ class Hub:
         self.model = DashboardModel(history_s)
         self.allow_control = allow_control
         self.call_service = call_service   # (battery topic, action, arguments) -> (success, message)
+        self.call_timeout_s = CALL_TIMEOUT_S
         self.clock = clock
         self.pages = set()
 
@@ -292,8 +297,13 @@ class ControlHandler(ApiHandler):
         if not has_controls:
             self.send_json({'success': False, 'message': 'no simulated battery %s' % topic}, 404)
             return
-        outcome, message = await tornado.ioloop.IOLoop.current().run_in_executor(
-            None, hub.call_service, topic, action, arguments)
+        call = tornado.ioloop.IOLoop.current().run_in_executor(None, hub.call_service, topic, action, arguments)
+        try:
+            outcome, message = await tornado.gen.with_timeout(datetime.timedelta(seconds=hub.call_timeout_s), call)
+        except tornado.util.TimeoutError:   # a service that hangs: the page hears so (the call runs on)
+            self.send_json({'success': False, 'message': 'no answer from the %s service of %s within %g s'
+                            % (action, topic, hub.call_timeout_s)}, 504)
+            return
         # refused: the user's value (4xx, with the service's reason); unreachable: the simulator's side (502)
         self.send_json({'success': outcome == SERVICE_OK, 'message': message},
                        {SERVICE_OK: 200, SERVICE_REFUSED: 422}.get(outcome, 502))
