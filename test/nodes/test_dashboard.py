@@ -3,10 +3,13 @@
 Chromium: a fleet of five, each level as battery_status says, a set_state within 1 s, low and
 critical marked, the detail page's charts (with controls, and read-only without any), the
 controls' checks, a battery with NaN fields that goes stale and then away, 403 for a foreign
-Host, and a port in use stopping a second dashboard."""
+Host, a port in use stopping a second dashboard, and a second fleet host on the one
+/battery_fleet/states topic merged with the first by robot name."""
 import http.client
+import json
 import math
 import subprocess
+import threading
 import time
 import unittest
 
@@ -17,13 +20,16 @@ from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import WebDriverWait
 from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Header
 
+from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import SetState
 from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(5)]
 NAN_TOPIC = '/zz_nan/battery_status'   # sorts after the robots
 HISTORY_S = 10.0                       # ~history_s in test/dashboard.test
+SECOND_HOST_ROBOTS = ['zz_fleet_a', 'zz_fleet_b']   # a second fleet host's robots (sort after the robots)
 
 
 WATCH_LEVEL = '''
@@ -37,6 +43,31 @@ new MutationObserver((changes, observer) => {
   }
 }).observe(field, {childList: true, characterData: true, subtree: true});
 '''
+
+
+class SecondHost:
+    """This test node plays a second fleet host: its robots (no battery_status of their own) on the
+    one topic /battery_fleet/states at 2 Hz, each message new (its own stamp), for the whole test."""
+
+    def __init__(self):
+        self.publisher = rospy.Publisher('/battery_fleet/states', BatteryFleetState, queue_size=1)
+        self.started = time.monotonic()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._publish, daemon=True)
+        self._thread.start()
+
+    def _publish(self):
+        while not self._stop.is_set():
+            states = [BatteryState(header=Header(stamp=rospy.Time.now()), percentage=0.5 + 0.1 * k, voltage=11.0,
+                                   current=-1.0, temperature=25.0, power_supply_status=2, present=True)
+                      for k in range(len(SECOND_HOST_ROBOTS))]
+            self.publisher.publish(BatteryFleetState(names=SECOND_HOST_ROBOTS, states=states))
+            self._stop.wait(0.5)
+
+    def stop(self):
+        self._stop.set()
+        self._thread.join(5.0)
+        self.publisher.unregister()
 
 
 def topic_of(robot):
@@ -57,6 +88,11 @@ class TestDashboard(unittest.TestCase):
         cls.status = {robot: Recorder(topic_of(robot)) for robot in ROBOTS}
         wait_for(lambda: all(r.count() > 0 for r in cls.status.values()), 60.0, 'battery_status of every robot')
         wait_for(cls.dashboard_answers, 60.0, 'the dashboard at %s' % cls.url)
+        cls.second_host = SecondHost()
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.second_host.stop()
 
     @classmethod
     def dashboard_answers(cls):
@@ -251,7 +287,7 @@ class TestDashboard(unittest.TestCase):
         self.wait(5.0, lambda d: 'stale' in self.classes(NAN_TOPIC), 'stale 3 s after its last message')
         self.assertGreater(time.monotonic() - gone, 2.5, 'not stale before 3 s')
         self.wait(HISTORY_S + 5.0, lambda d: not self.cards_with(NAN_TOPIC), 'away after ~history_s')
-        self.assertEqual(len(self.cards()), len(ROBOTS), 'the robots stay')
+        self.assertEqual(len(self.cards()), len(ROBOTS) + len(SECOND_HOST_ROBOTS), 'the robots stay')
 
     def cards_with(self, topic):
         return self.driver.find_elements(By.CSS_SELECTOR, card_selector(topic))
@@ -268,6 +304,19 @@ class TestDashboard(unittest.TestCase):
         self.assertIn('in use', fatal[0])
         self.assertNotIn('Traceback', output)
 
+    def test_9_a_second_fleet_host_on_the_one_states_topic_shows_every_robot(self):
+        """The second host (setUpClass) has published its robots on /battery_fleet/states beside the fleet
+        host's robot0..robot4 since the start: every robot shown, none stale, each names its host."""
+        self.assertGreater(time.monotonic() - self.second_host.started, 4.0, 'longer than the 3 s to stale')
+        topics = [topic_of(robot) for robot in ROBOTS + SECOND_HOST_ROBOTS]
+        self.wait(5.0, lambda d: all(self.cards_with(topic) for topic in topics), 'a card per robot of both hosts')
+        self.assertEqual(self.field(topic_of('zz_fleet_b'), 'percentage'), '60.0 %')
+        self.assertEqual([topic for topic in topics if 'stale' in self.classes(topic)], [], 'none stale')
+        status, body = self.request('/api/batteries')
+        self.assertEqual(status, 200)
+        hosts = {battery['topic']: battery['host'] for battery in json.loads(body)['batteries']}
+        self.assertEqual([hosts[topic] for topic in topics],
+                         ['/battery_fleet'] * len(ROBOTS) + [rospy.get_name()] * len(SECOND_HOST_ROBOTS))
 
 if __name__ == '__main__':
     rostest.rosrun('battery_simulator', 'test_dashboard', TestDashboard)

@@ -1,7 +1,9 @@
 """The dashboard without ROS: topic discovery, the stale and low/critical rules, the text of
 each field, histories, and the web app's Host/Origin check and control validation."""
 import json
+import logging
 import math
+import time
 
 import pytest
 
@@ -188,6 +190,53 @@ def test_a_fleet_host_names_the_host_and_gives_a_first_value():
     assert dashboard.snapshot(1.0)[0]['fields']['percentage'] == '41.0 %'
 
 
+def fleet_entries(names, level, stamp):
+    return [(name, dict(battery(percentage=level), stamp=stamp)) for name in names]
+
+
+def test_fleet_hosts_on_one_topic_are_merged_by_name_and_keep_their_robots_fresh():
+    """Every host publishes its own robots on /battery_fleet/states: host 1's A, B and host 2's C, D
+    alternate on the one topic; none of the four leaves or goes stale, each names its own host."""
+    dashboard = DashboardModel(history_s=60)
+    for k in range(20):   # 1 Hz from each host, 10 s
+        t = 0.5 * k
+        if k % 2 == 0:
+            dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A', 'B'], 0.5, 1000.0 + t), t)
+        else:
+            dashboard.on_fleet_message('/', '/battery_fleet_1', fleet_entries(['C', 'D'], 0.3, 1000.0 + t), t)
+        dashboard.tick(t)
+    views = {view['topic']: view for view in dashboard.snapshot(10.0)}
+    assert sorted(views) == ['/A/battery_status', '/B/battery_status', '/C/battery_status', '/D/battery_status']
+    assert not any(view['stale'] for view in views.values()), [v['topic'] for v in views.values() if v['stale']]
+    assert [views['/%s/battery_status' % name]['host'] for name in 'ABCD'] == [
+        '/battery_fleet', '/battery_fleet', '/battery_fleet_1', '/battery_fleet_1']
+    assert views['/C/battery_status']['fields']['percentage'] == '30.0 %'
+    # values are made only when they count (a host of 1000 robots whose own topics speak costs no conversion)
+    dashboard.on_battery('/A/battery_status', dict(battery(percentage=0.52), stamp=2000.0), 10.1)
+    made = []
+    dashboard.on_fleet('/A/battery_status', '/battery_fleet', lambda: made.append(1) or battery(), 10.2)
+    assert made == [] and dashboard.snapshot(10.2)[0]['fields']['percentage'] == '52.0 %'   # its own topic rules
+
+
+def test_a_fleet_host_repeating_a_silent_robots_last_message_does_not_keep_it_fresh():
+    """A host lists each robot's latest BatteryState; when the robot's own topic goes quiet (a sensor
+    dropout) the host repeats the same message: it goes stale, leaves after history_s, and a repeat of
+    that same message does not bring it back; a new one does."""
+    dashboard = DashboardModel(history_s=20)
+    topic = '/A/battery_status'
+    for k in range(5):
+        dashboard.on_battery(topic, dict(battery(), stamp=100.0 + k), float(k))
+        dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A'], 0.6, 100.0 + k), k + 0.5)
+    for k in range(5, 40):   # the robot's own topic is silent: the host repeats its last message
+        dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A'], 0.6, 104.0), float(k))
+        changed, removed = dashboard.tick(float(k))
+        if k == 8:
+            assert dashboard.records[topic].stale(8.0)
+    assert topic not in dashboard.records and dashboard.snapshot(40.0) == []
+    dashboard.on_fleet_message('/', '/battery_fleet', fleet_entries(['A'], 0.6, 140.0), 41.0)   # a new one
+    assert [(view['topic'], view['stale']) for view in dashboard.snapshot(41.0)] == [(topic, False)]
+
+
 def test_snapshot_is_sorted_by_topic():
     dashboard = DashboardModel(history_s=600)
     for topic in ('/robot2/battery_status', '/robot10/battery_status', '/alpha/battery_status'):
@@ -252,6 +301,8 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
             return app.SERVICE_REFUSED, 'state_of_health = 0.001 is invalid: must be in [0.01, 1]'
         if arguments[2].get('percentage') == 99:
             return app.SERVICE_UNREACHABLE, '/robot3/battery_simulator/set_state: timeout'
+        if arguments[2].get('percentage') == 98:   # a service that hangs
+            time.sleep(1.0)
         return app.SERVICE_OK, 'done'
 
     def host(self):
@@ -312,31 +363,59 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert refused.code == 422, 'a value the service refuses is the user\'s error (4xx), not a 502'
         assert 'state_of_health = 0.001 is invalid' in json.loads(refused.body)['message']
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 99}).code == 502, 'a service gone: 502'
+        self.hub.call_timeout_s = 0.2
+        hung = post({'topic': TOPIC, 'action': 'set_state', 'percentage': 98})
+        assert hung.code == 504 and 'no answer' in json.loads(hung.body)['message'], 'a service that hangs: 504'
 
     def test_a_huge_query_string_gets_414(self):
         response = self.fetch('/battery?topic=' + 'x' * 100000, headers={'Host': self.host()})
         assert response.code == 414, response.code
 
-    def test_refused_requests_are_said_at_most_every_10_s(self):
-        lines, now = [], [0.0]
-        log = app.RequestLog(lines.append, clock=lambda: now[0])
+    def test_a_probe_of_refused_requests_writes_one_line_then_a_count_every_10_s(self):
+        """81 requests with a foreign Host, 3 unknown paths, a 100 kB URI: one line at once, then one line
+        with their count at the end of the 10 s (the node writes tornado's own warnings to the ROS log
+        too: none of those either)."""
+        lines, later = [], []
+        self._app.settings['log_function'] = app.RequestLog(
+            lines.append, call_later=lambda delay_s, function: later.append((delay_s, function)))
+        tornado_lines = []
+        capture = logging.Handler(logging.WARNING)
+        capture.emit = tornado_lines.append
+        for name in app.TORNADO_LOGGERS:
+            logging.getLogger(name).addHandler(capture)
+        try:
+            for _ in range(81):
+                assert self.fetch('/', headers={'Host': 'evil.example:1'}).code == 403
+            for k in range(3):
+                assert self.fetch('/no/page%d' % k, headers={'Host': self.host()}).code == 404
+            assert self.fetch('/?q=' + 'x' * 100000, headers={'Host': self.host()}).code == 414
+            assert self.fetch('/', headers={'Host': self.host()}).code == 200
+        finally:
+            for name in app.TORNADO_LOGGERS:
+                logging.getLogger(name).removeHandler(capture)
+        assert [record.getMessage() for record in tornado_lines] == []
+        assert lines == ["request refused: 403 GET / (Host 'evil.example:1', Origin None)"], lines
+        assert [delay for delay, _ in later] == [10.0]
+        later.pop()[1]()                                  # 10 s on: the count
+        assert len(lines) == 2 and lines[1].startswith(
+            '84 more request(s) refused or failed in the last 10 s (80 x 403, 3 x 404, 1 x 414); the last: 414 GET'), \
+            lines
+        assert len(later) == 1
+        later.pop()[1]()                                  # a quiet period: nothing more to say
+        assert len(lines) == 2 and later == []
+        assert self.fetch('/no/page', headers={'Host': self.host()}).code == 404   # said at once again
+        assert lines[2] == 'request refused: 404 GET /no/page' and len(later) == 1
 
-        class Handler:
-            def __init__(self, status):
-                self.request = type('R', (), {'method': 'GET', 'uri': '/', 'headers': {'Host': 'evil'}})()
-                self._status = status
 
-            def get_status(self):
-                return self._status
-        for _ in range(81):
-            log(Handler(403))
-        assert len(lines) == 1, lines
-        now[0] = 10.5
-        log(Handler(403))
-        assert len(lines) == 2 and 'refused 81 request' in lines[1], lines
-        log(Handler(200))
-        log(Handler(500))
-        assert len(lines) == 3 and lines[2].startswith('500 GET')
+def test_the_node_warns_at_start_up_when_the_chart_library_is_missing(tmp_path):
+    """(The page's own note: test_dashboard_without_charts.py.) A directory without chart.min.js is missing
+    too (the page loads that file)."""
+    (tmp_path / 'Chart.js').write_text('')
+    problem = app.chart_library_problem(str(tmp_path))
+    assert 'chart library is missing' in problem and 'libjs-chart.js' in problem and str(tmp_path) in problem
+    assert 'missing' in app.chart_library_problem(str(tmp_path / 'nowhere'))
+    (tmp_path / 'chart.min.js').write_text('/* Chart.js */')
+    assert app.chart_library_problem(str(tmp_path)) is None
 
 
 def test_a_stalled_page_is_closed_rather_than_buffered_for():
@@ -360,14 +439,37 @@ def test_a_stalled_page_is_closed_rather_than_buffered_for():
 
 
 def test_numbers_no_one_can_read_are_shown_short_and_marked():
-    assert model.number_text(3.4e38, 2, 'V', model.PLAUSIBLE['voltage']) == '3.4e+38 V (out of range)'
+    assert model.number_text(3.4e38, 2, 'V', 'voltage') == '3.4e+38 V (out of range)'
     assert model.percentage_text(-1e9) == '-1e+11 % (out of range)'
     assert model.percentage_text(0.632) == '63.2 %' and model.number_text(12.31, 2, 'V') == '12.31 V'
+    assert model.number_text(0.0, 2, 'V', 'voltage') == '0.00 V (out of range)'   # no pack reads 0 V
+    assert model.number_text(-1.0, 2, 'V', 'voltage') == '-1.00 V (out of range)'
+    assert model.number_text(2500.0, 2, 'A', 'current') == '2500.00 A (out of range)'
+    assert model.number_text(math.inf, 2, 'V', 'voltage') == '-'
     record = model.BatteryRecord('/r/battery_status', 0.0)
     record.on_battery(battery(percentage=-1e9, voltage=3.4e38), 1.0, 1.0)
     view = record.view(1.0)
     assert view['out_of_range'] == ['percentage', 'voltage'], view['out_of_range']
     assert max(len(text) for text in view['fields'].values()) < 30, view['fields']
+
+
+def test_a_time_remaining_from_absurd_values_is_unknown_and_every_shown_text_is_short():
+    """A charge of 3.4e38 Ah over a sane current made a 40-digit time remaining ('2266...6588 h 48 min');
+    the simulator's cycle count and health are the server's text too, short and marked."""
+    record = model.BatteryRecord('/r/battery_status', 0.0)
+    record.on_battery(battery(charge=3.4e38, current=-1.5), 1.0, 1.0)
+    record.sim = {'cycle_count': 3.4e38, 'state_of_health': -1e9}
+    view = record.view(1.0)
+    assert view['fields']['time_remaining'] == '-', view['fields']
+    assert view['fields']['charge'] == '3.4e+38 Ah (out of range)'
+    assert view['fields']['cycle_count'] == '3.4e+38 (out of range)'
+    assert view['fields']['state_of_health'] == '-1e+11 % (out of range)'
+    assert view['out_of_range'] == ['charge', 'cycle_count', 'state_of_health'], view['out_of_range']
+    assert max(len(text) for text in view['fields'].values()) < 30, view['fields']
+    assert model.duration_text(1e4 * 3600.0) == '> 9999 h' and model.duration_text(7500) == '2 h 05 min'
+    record.sim = {'cycle_count': 12.5, 'state_of_health': 0.93}
+    fields = record.view(1.0)['fields']
+    assert (fields['cycle_count'], fields['state_of_health']) == ('12.50', '93.0 %')
 
 
 def test_a_silent_but_advertised_topic_stays_away_once_dropped():

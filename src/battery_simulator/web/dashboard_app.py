@@ -9,7 +9,10 @@ rebinding, cross-site requests). ``/api/control`` exists only with controls
 on, and calls nothing but set_state, set_charging and inject_fault with
 checked values.
 """
+import collections
+import datetime
 import json
+import logging
 import math
 import os
 import re
@@ -18,7 +21,9 @@ import threading
 import time
 import urllib.parse
 
+import tornado.gen
 import tornado.ioloop
+import tornado.util
 import tornado.web
 import tornado.websocket
 
@@ -26,6 +31,7 @@ from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
 
 STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
 CHART_JS_DIR = '/usr/share/javascript/chart.js'
+CHART_JS_FILE = 'chart.min.js'   # what battery.html loads from CHART_JS_DIR
 PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
 CONTROLS_SECTION = re.compile(r'\s*<section class="controls".*?</section>', re.S)
 MAX_UNSENT_PUSHES = 240        # a page this many pushes (a minute) behind is closed, not buffered for
@@ -41,9 +47,12 @@ SET_STATE_RANGES = {'percentage': (0.0, 100.0), 'temperature_c': (-60.0, 150.0),
 CONTROL_ACTIONS = ('set_state', 'set_charging', 'inject_fault')
 #: what a control's service call came to (the hub's call_service returns one with its message)
 SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE = 'ok', 'refused', 'unreachable'
+CALL_TIMEOUT_S = 10.0           # a control's service call without an answer by then: 504
 MAX_URI_BYTES = 8192            # longer: 414 (the server reads headers up to MAX_HEADER_BYTES to say so)
 MAX_HEADER_BYTES = 1024 * 1024
-REFUSED_LOG_PERIOD_S = 10.0
+REQUEST_LOG_PERIOD_S = 10.0     # refused or failed requests: one line, then their count every this
+#: tornado's loggers of its own warnings and errors (the node writes them to the ROS log)
+TORNADO_LOGGERS = ('tornado.application', 'tornado.general')
 
 
 # -- the checks (plain functions, unit-tested) -----------------------------------------
@@ -127,6 +136,16 @@ def control_request(body):
     raise ValueError('action must be one of %s' % ', '.join(CONTROL_ACTIONS))
 
 
+def chart_library_problem(directory=None):
+    """The start-up warning when the chart library is missing (None when it is there): the battery pages
+    then say so where the charts would be."""
+    path = os.path.join(directory or CHART_JS_DIR, CHART_JS_FILE)
+    if os.path.isfile(path):
+        return None
+    return ('the chart library is missing (%s; install the Debian package libjs-chart.js): the battery pages say '
+            'so instead of drawing charts' % path)
+
+
 def to_json(data):
     """JSON that a browser parses: NaN and infinities (JSON has none) become null."""
     try:
@@ -155,6 +174,7 @@ class Hub:
         self.model = DashboardModel(history_s)
         self.allow_control = allow_control
         self.call_service = call_service   # (battery topic, action, arguments) -> (success, message)
+        self.call_timeout_s = CALL_TIMEOUT_S
         self.clock = clock
         self.pages = set()
 
@@ -183,11 +203,12 @@ class _Guard:
     security headers."""
 
     def prepare(self):
+        # no log message in these errors: tornado would say each (a probe sends hundreds); RequestLog says them
         if len(self.request.uri) > MAX_URI_BYTES:
-            raise tornado.web.HTTPError(414, 'the request URI is longer than %d bytes' % MAX_URI_BYTES)
+            raise tornado.web.HTTPError(414)
         if not request_allowed(self.request.headers.get('Host'), self.request.headers.get('Origin'),
                                self.settings['own_addresses']):
-            raise tornado.web.HTTPError(403, 'Host or Origin is not this dashboard')
+            raise tornado.web.HTTPError(403)
 
     def set_default_headers(self):
         for name, value in SECURITY_HEADERS.items():
@@ -276,8 +297,13 @@ class ControlHandler(ApiHandler):
         if not has_controls:
             self.send_json({'success': False, 'message': 'no simulated battery %s' % topic}, 404)
             return
-        outcome, message = await tornado.ioloop.IOLoop.current().run_in_executor(
-            None, hub.call_service, topic, action, arguments)
+        call = tornado.ioloop.IOLoop.current().run_in_executor(None, hub.call_service, topic, action, arguments)
+        try:
+            outcome, message = await tornado.gen.with_timeout(datetime.timedelta(seconds=hub.call_timeout_s), call)
+        except tornado.util.TimeoutError:   # a service that hangs: the page hears so (the call runs on)
+            self.send_json({'success': False, 'message': 'no answer from the %s service of %s within %g s'
+                            % (action, topic, hub.call_timeout_s)}, 504)
+            return
         # refused: the user's value (4xx, with the service's reason); unreachable: the simulator's side (502)
         self.send_json({'success': outcome == SERVICE_OK, 'message': message},
                        {SERVICE_OK: 200, SERVICE_REFUSED: 422}.get(outcome, 502))
@@ -322,35 +348,66 @@ class LiveSocket(_Guard, tornado.websocket.WebSocketHandler):
 
 
 class RequestLog:
-    """Tornado's request log: nothing for success, a WARN for a failure, and the refused requests (a
-    foreign Host or Origin, 403) counted and said at most every REFUSED_LOG_PERIOD_S (a probe sends
-    hundreds). ``warn(text)`` writes a line."""
+    """Tornado's request log: nothing for success; a refused or failed request (status 400 or more) is
+    said at once when none was said in the last REQUEST_LOG_PERIOD_S, else counted and said in one line
+    at the end of that period (a probe sends hundreds: 403 for a foreign Host or Origin, 404, 414).
+    ``warn(text)`` writes a line; ``call_later(delay_s, function)`` runs the count's line later (by
+    default on the current IOLoop)."""
 
-    def __init__(self, warn, clock=time.monotonic):
-        self._warn, self._clock = warn, clock
-        self._refused = 0
-        self._said_at = -REFUSED_LOG_PERIOD_S
+    def __init__(self, warn, call_later=None):
+        self._warn = warn
+        self._call_later = call_later or (lambda delay_s, function:
+                                          tornado.ioloop.IOLoop.current().call_later(delay_s, function))
+        self._counts = collections.Counter()   # status -> requests not said yet
+        self._last = ''
+        self._quiet = False                    # within a period after a line: count, say at its end
 
     def __call__(self, handler):
         status = handler.get_status()
         if status < 400:
             return
         request = handler.request
-        if status != 403:
-            self._warn('%d %s %s' % (status, request.method, request.uri[:200]))
+        text = '%d %s %s' % (status, request.method, request.uri[:200])
+        if status == 403:
+            text += ' (Host %r, Origin %r)' % (request.headers.get('Host'), request.headers.get('Origin'))
+        if self._quiet:
+            self._counts[status] += 1
+            self._last = text
             return
-        self._refused += 1
-        now = self._clock()
-        if now - self._said_at >= REFUSED_LOG_PERIOD_S:
-            self._warn('refused %d request(s) with a foreign Host or Origin (403) in the last %.0f s; last: %s %s '
-                       'Host=%r' % (self._refused, min(now - self._said_at, 1e9), request.method, request.uri[:200],
-                                    request.headers.get('Host')))
-            self._refused, self._said_at = 0, now
+        self._warn('request refused: %s' % text if status < 500 else 'request failed: %s' % text)
+        self._start_period()
+
+    def _start_period(self):
+        self._quiet = True
+        self._call_later(REQUEST_LOG_PERIOD_S, self._end_period)
+
+    def _end_period(self):
+        if not self._counts:
+            self._quiet = False
+            return
+        self._warn('%d more request(s) refused or failed in the last %.0f s (%s); the last: %s' % (
+            sum(self._counts.values()), REQUEST_LOG_PERIOD_S,
+            ', '.join('%d x %d' % (count, status) for status, count in sorted(self._counts.items())), self._last))
+        self._counts.clear()
+        self._start_period()
 
 
-def make_app(hub, host, port, warn=None):
+def bridge_tornado_logs(warn, error):
+    """Tornado's own warnings and errors (a handler that failed, a malformed request) to ``warn(text)`` /
+    ``error(text)``; its access log off (RequestLog says what matters)."""
+    class Bridge(logging.Handler):
+        def emit(self, record):
+            (error if record.levelno >= logging.ERROR else warn)(self.format(record))
+    for name in TORNADO_LOGGERS:
+        logger = logging.getLogger(name)
+        logger.addHandler(Bridge(logging.WARNING))
+        logger.propagate = False
+    logging.getLogger('tornado.access').setLevel(logging.CRITICAL)
+
+
+def make_app(hub, host, port, warn=None, request_log=None):
     """The tornado application: pages, static files, Chart.js, the API and /live. ``warn(text)``: where
-    failed and refused requests are said (throttled for the refused)."""
+    failed and refused requests are said (a RequestLog, or ``request_log``)."""
     return tornado.web.Application([
         (r'/', PageHandler, {'page': 'index.html'}),
         (r'/battery', PageHandler, {'page': 'battery.html'}),
@@ -361,7 +418,7 @@ def make_app(hub, host, port, warn=None):
         (r'/api/control', ControlHandler),
         (r'/live', LiveSocket),
     ], hub=hub, own_addresses=own_addresses(host, port), websocket_ping_interval=20,
-        default_handler_class=NotFoundHandler, log_function=RequestLog(warn or _no_line))
+        default_handler_class=NotFoundHandler, log_function=request_log or RequestLog(warn or _no_line))
 
 
 def _no_line(text):

@@ -46,26 +46,38 @@ FAULTS = tuple(sorted(names.FAULTS))
 #: beyond this magnitude a number is shown in scientific notation (3 significant digits): a driver's
 #: 3.4e38 would otherwise be a 40-digit number overflowing the card
 MAX_FIXED = 1e5
-#: what a battery can plausibly report; a value outside is shown marked "out of range"
+#: what a battery can plausibly report, (low, high) inclusive; a value outside is shown marked "out of range"
+#: (a voltage of 0 or below too: no pack reads that; NaN is the message's "not measured")
 PLAUSIBLE = {'percentage': (0.0, 100.0), 'voltage': (0.0, 1000.0), 'current': (-1000.0, 1000.0),
-             'temperature': (-60.0, 150.0), 'charge': (0.0, 1e4), 'capacity': (0.0, 1e4)}
+             'temperature': (-60.0, 150.0), 'charge': (0.0, 1e4), 'capacity': (0.0, 1e4),
+             'cycle_count': (0.0, 1e6), 'state_of_health': (0.0, 100.0)}
+ABOVE_LOW = ('voltage',)   # fields whose low bound itself is out of range
 OUT_OF_RANGE = ' (out of range)'
+MAX_DURATION_H = 9999      # a longer time remaining is shown as "> 9999 h"
 
 
-def number_text(value, digits, unit, plausible=None):
-    """'12.31 V'; '3.4e+38 V' beyond MAX_FIXED; ' (out of range)' appended outside ``plausible``
-    (low, high); '-' for NaN, infinity or nothing."""
+def in_range(field, value):
+    """A finite ``value`` of ``field`` (percentage in %) within PLAUSIBLE."""
+    low, high = PLAUSIBLE[field]
+    return is_number(value) and (low < value if field in ABOVE_LOW else low <= value) and value <= high
+
+
+def number_text(value, digits, unit, field=None):
+    """'12.31 V'; '3.4e+38 V' beyond MAX_FIXED; ' (out of range)' appended outside PLAUSIBLE[field];
+    '-' for NaN, infinity or nothing."""
     if not is_number(value):
         return '-'
-    text = '%.*f %s' % (digits, value, unit) if abs(value) < MAX_FIXED else '%.3g %s' % (value, unit)
-    if plausible is not None and not plausible[0] <= value <= plausible[1]:
+    text = '%.*f' % (digits, value) if abs(value) < MAX_FIXED else '%.3g' % value
+    if unit:
+        text += ' ' + unit
+    if field is not None and not in_range(field, value):
         text += OUT_OF_RANGE
     return text
 
 
 def percentage_text(fraction):
     """BatteryState.percentage (0..1) as '63.2 %'."""
-    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%', PLAUSIBLE['percentage'])
+    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%', 'percentage')
 
 
 def duration_text(seconds):
@@ -77,6 +89,8 @@ def duration_text(seconds):
     minutes = int(round(seconds / 60.0))
     if minutes < 60:
         return '%d min' % minutes
+    if minutes >= 60 * MAX_DURATION_H:
+        return '> %d h' % MAX_DURATION_H
     return '%d h %02d min' % divmod(minutes, 60)
 
 
@@ -117,9 +131,11 @@ def status_name(power_supply_status, sim_charging_state=None, percentage=None):
 def time_remaining_s(values, status):
     """To empty while discharging, to full while charging, at the present current (as the
     simulator computes it); None when the BatteryState lacks charge, capacity or current (a
-    capacity of 0, as many drivers send for "not measured", counts as lacking)."""
+    capacity of 0, as many drivers send for "not measured", counts as lacking) or one of them is out of
+    range."""
     charge, capacity, current = values.get('charge'), values.get('capacity'), values.get('current')
-    if not (is_number(charge) and is_number(current) and is_number(capacity) and capacity > 0.0):
+    if not (in_range('charge', charge) and in_range('current', current) and in_range('capacity', capacity)
+            and capacity > 0.0):
         return None
     if status == 'Discharging' and current < 0.0:
         return charge / -current * 3600.0
@@ -163,6 +179,11 @@ def namespace_of(name):
     return name[:name.rstrip('/').rfind('/') + 1] or '/'
 
 
+def _same_stamp(stamp, shown):
+    """A known header stamp (not 0: a publisher that leaves it unset) equal to the one shown."""
+    return is_number(stamp) and stamp > 0.0 and stamp == shown
+
+
 def fleet_battery_topic(host_namespace, robot_name):
     """The battery_status topic of robot ``robot_name`` of a fleet host in ``host_namespace``."""
     return host_namespace + robot_name.strip('/') + '/battery_status'
@@ -186,7 +207,9 @@ class BatteryRecord:
         self.host = ''                 # the fleet host that serves it, if any
         self.has_controls = False      # the simulator's services exist in its namespace
         self.discovered = now
-        self.last_message = None       # wall time of the latest BatteryState
+        self.last_message = None       # wall time of the latest BatteryState (its own or a fleet host's)
+        self.own_last = None           # wall time of the latest on its own topic
+        self.stamp = None              # header stamp (s) of the latest BatteryState shown
         self.messages = 0
         self._intervals = collections.deque(maxlen=PERIOD_SAMPLES)
         self.history = collections.deque()   # (time, percentage %, voltage, current, temperature)
@@ -202,11 +225,16 @@ class BatteryRecord:
         last = self.last_message if self.last_message is not None else self.discovered
         return now - last >= stale_after_s(self.period_s())
 
+    def own_topic_speaks(self, now):
+        """Its own topic said something within the stale time (a fleet host's copy then adds nothing)."""
+        return self.own_last is not None and now - self.own_last < stale_after_s(self.period_s())
+
     def on_battery(self, values, now, history_step_s):
         if self.last_message is not None and now > self.last_message:
             self._intervals.append(now - self.last_message)
         self.last_message = now
         self.messages += 1
+        self.stamp = values.pop('stamp', None)
         self.power_supply_status = values.pop('power_supply_status', 0)
         self.power_supply_health = values.pop('power_supply_health', 0)
         self.location = values.pop('location', '')
@@ -231,6 +259,16 @@ class BatteryRecord:
             return self.sim['time_remaining_s'] if is_number(self.sim['time_remaining_s']) else None
         return time_remaining_s(self.values, status)
 
+    def _shown_numbers(self):
+        """Every number the page shows as text, by PLAUSIBLE's field (percentages in %)."""
+        numbers = {field: self.values.get(field) for field in ('voltage', 'current', 'temperature', 'charge',
+                                                                 'capacity')}
+        for field, source, scale in (('percentage', self.values, 100.0), ('cycle_count', self.sim, 1.0),
+                                     ('state_of_health', self.sim, 100.0)):
+            value = source.get(field)
+            numbers[field] = scale * value if is_number(value) else None
+        return numbers
+
     def view(self, now):
         """What the page shows: text per data-field, classes, raw numbers, extras."""
         values = self.values
@@ -244,18 +282,22 @@ class BatteryRecord:
             'fields': {
                 'percentage': percentage_text(percentage),
                 'status': status,
-                'voltage': number_text(values.get('voltage'), 2, 'V', PLAUSIBLE['voltage']),
-                'current': number_text(values.get('current'), 2, 'A', PLAUSIBLE['current']),
-                'temperature': number_text(values.get('temperature'), 1, '°C', PLAUSIBLE['temperature']),
+                'voltage': number_text(values.get('voltage'), 2, 'V', 'voltage'),
+                'current': number_text(values.get('current'), 2, 'A', 'current'),
+                'temperature': number_text(values.get('temperature'), 1, '°C', 'temperature'),
                 'time_remaining': duration_text(remaining),
-                'charge': number_text(values.get('charge'), 2, 'Ah', PLAUSIBLE['charge']),
-                'capacity': number_text(values.get('capacity'), 2, 'Ah', PLAUSIBLE['capacity']),
+                'charge': number_text(values.get('charge'), 2, 'Ah', 'charge'),
+                'capacity': number_text(values.get('capacity'), 2, 'Ah', 'capacity'),
                 'health': SUPPLY_HEALTH.get(self.power_supply_health, '-'),
+                # the simulator's (battery_simulator/state), '-' where none
+                'cycle_count': number_text(self.sim.get('cycle_count'), 2, '', 'cycle_count'),
+                'state_of_health': number_text(100.0 * self.sim['state_of_health']
+                                               if is_number(self.sim.get('state_of_health')) else None,
+                                               1, '%', 'state_of_health'),
             },
             'level': json_number(100.0 * percentage) if is_number(percentage) else None,
-            'out_of_range': sorted(field for field, (low, high) in PLAUSIBLE.items()
-                                   if is_number(values.get(field)) and not low <= (
-                                       100.0 * values[field] if field == 'percentage' else values[field]) <= high),
+            'out_of_range': sorted(field for field, value in self._shown_numbers().items()
+                                   if is_number(value) and not in_range(field, value)),
             'values': {field: json_number(values.get(field)) for field in ('voltage', 'current', 'temperature')},
             'low': low,
             'critical': critical,
@@ -283,7 +325,9 @@ class DashboardModel:
         self._changed = set()
         self._removed = set()
         self._stale = set()
-        self._silenced = set()   # dropped for silence: back only with a message, not by being advertised
+        #: dropped for silence -> the header stamp of its last message: back only with a new message, not by
+        #: being advertised nor by a fleet host repeating that last message
+        self._silenced = {}
 
     def _record(self, topic, now, changed=True):
         record = self.records.get(topic)
@@ -306,8 +350,10 @@ class DashboardModel:
 
     def on_battery(self, topic, values, now):
         """A BatteryState as a dict: BATTERY_FIELDS, power_supply_status/health, location, serial_number."""
-        self._silenced.discard(topic)
-        self._record(topic, now).on_battery(dict(values), now, self.history_step_s)
+        self._silenced.pop(topic, None)
+        record = self._record(topic, now)
+        record.on_battery(dict(values), now, self.history_step_s)
+        record.own_last = now
 
     def on_level_topic(self, topic, which, active, now):
         """battery_low (which='low') or battery_critical ('critical') of the battery ``topic``."""
@@ -328,15 +374,29 @@ class DashboardModel:
         record.sim = sim
 
     def on_fleet(self, topic, host, values, now):
-        """One battery of a fleet host's states: names its host; gives a first value before its own topic."""
-        self._silenced.discard(topic)
-        record = self._record(topic, now, changed=False)
-        if record.host != host:
+        """One battery of a fleet host's states: names its host (the node that published it); its values
+        count as a message while the battery's own topic is silent (not connected yet, gone, or none at
+        all), unless they repeat the message already shown (the same header stamp: a host lists its
+        robot's latest BatteryState, also after that robot's own topic went quiet). ``values``: the dict
+        (with 'stamp') or a function that makes it (called only when needed)."""
+        record = self.records.get(topic)
+        if record is None or not record.own_topic_speaks(now):
+            values = values() if callable(values) else dict(values)
+            shown = record.stamp if record is not None and record.last_message is not None else \
+                self._silenced.get(topic)
+            if not _same_stamp(values.get('stamp'), shown):
+                self._silenced.pop(topic, None)
+                record = self._record(topic, now)
+                record.on_battery(values, now, self.history_step_s)
+        if record is not None and record.host != host:
             record.host = host
             self._changed.add(topic)
-        if record.last_message is None:
-            record.on_battery(dict(values), now, self.history_step_s)
-            self._changed.add(topic)
+
+    def on_fleet_message(self, host_namespace, host, entries, now):
+        """A BatteryFleetState from ``host`` (its publisher): [(robot name, values), ...] merged by name
+        with what other hosts said (every host publishes its own robots on the one topic)."""
+        for name, values in entries:
+            self.on_fleet(fleet_battery_topic(host_namespace, name), host, values, now)
 
     def tick(self, now, views=True):
         """Trim histories, drop batteries silent for ~history_s, find stale changes.
@@ -348,7 +408,7 @@ class DashboardModel:
             last = record.last_message if record.last_message is not None else record.discovered
             if now - last > self.history_s:
                 del self.records[topic]
-                self._silenced.add(topic)
+                self._silenced[topic] = record.stamp
                 self._changed.discard(topic)
                 self._removed.add(topic)
                 self._stale.discard(topic)

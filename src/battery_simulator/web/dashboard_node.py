@@ -16,14 +16,14 @@ callbacks write the model under the hub's lock; the web thread reads it.
 :Subscribes:
   - every ``sensor_msgs/BatteryState`` topic; ``<ns>/battery_low``, ``<ns>/battery_critical``
     (std_msgs/Bool), ``<ns>/battery_simulator/state`` (battery_simulator/BatterySimState),
-    ``<host>/states`` (battery_simulator/BatteryFleetState) where they exist
+    every ``battery_simulator/BatteryFleetState`` topic (``/battery_fleet/states``, where every fleet
+    host publishes its robots; an older host's ``<host>/states``), merged by robot name
 :Calls (only with ~allow_control):
   - ``<ns>/battery_simulator/set_state``, ``set_charging``, ``inject_fault``
 """
 import errno
-import logging
+import functools
 import math
-import os
 import threading
 import time
 
@@ -38,9 +38,10 @@ from battery_simulator.ros import topics
 from battery_simulator.ros.startup import (StartupError, checked_param, exit_on_startup_error, init_node, is_number,
                                            signals_held)
 from battery_simulator.srv import InjectFault, SetState
-from battery_simulator.web.dashboard_app import (CHART_JS_DIR, SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
-                                                make_app, server_options, start_pushing)
-from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover, fleet_battery_topic, namespace_of
+from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
+                                                bridge_tornado_logs, chart_library_problem, make_app, server_options,
+                                                start_pushing)
+from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover, namespace_of
 
 SERVICE_TIMEOUT_S = 2.0
 SERVICES = {'set_state': (topics.SET_STATE, SetState), 'set_charging': (topics.SET_CHARGING, SetBool),
@@ -66,8 +67,14 @@ def battery_values(msg):
     """A BatteryState as the plain dict the model takes."""
     values = {field: getattr(msg, field) for field in BATTERY_FIELDS}
     values.update(power_supply_status=msg.power_supply_status, power_supply_health=msg.power_supply_health,
-                  location=msg.location, serial_number=msg.serial_number)
+                  location=msg.location, serial_number=msg.serial_number, stamp=msg.header.stamp.to_sec())
     return values
+
+
+def publisher_of(msg):
+    """The node that published a received message ('' when rospy does not say)."""
+    header = getattr(msg, '_connection_header', None) or {}
+    return header.get('callerid', '')
 
 
 class BatteryDashboard:
@@ -134,16 +141,13 @@ class BatteryDashboard:
             self.hub.model.on_sim_state(battery, sim, time.time())
 
     def _on_fleet(self, msg, fleet_and_namespace):
+        """Every host publishes its robots on the one topic (older hosts on their own ``<host>/states``):
+        merged by robot name, each robot's host is the node that published it."""
         fleet, host_namespace = fleet_and_namespace
-        host = fleet[:-len('/states')] if fleet.endswith('/states') else fleet
-        now = time.time()
+        host = publisher_of(msg) or (fleet[:-len('/states')] if fleet.endswith('/states') else fleet)
+        entries = [(name, functools.partial(battery_values, state)) for name, state in zip(msg.names, msg.states)]
         with self.hub.lock:
-            model = self.hub.model
-            for name, state in zip(msg.names, msg.states):
-                battery = fleet_battery_topic(host_namespace, name)
-                record = model.records.get(battery)
-                if record is None or record.host != host or record.last_message is None:
-                    model.on_fleet(battery, host, battery_values(state), now)
+            self.hub.model.on_fleet_message(host_namespace, host, entries, time.time())
 
     # -- controls (a web worker thread)
     def call_service(self, battery, action, arguments):
@@ -173,20 +177,9 @@ def _shown(arguments):
                      for key, value in sorted(arguments.items()))
 
 
-class _ToRosLog(logging.Handler):
-    """Tornado's warnings and errors (a handler that failed, a bad request) as ROS log lines."""
-
-    def emit(self, record):
-        (rospy.logerr if record.levelno >= logging.ERROR else rospy.logwarn)('battery_dashboard: %s',
-                                                                              self.format(record))
-
-
 def main():
-    for name in ('tornado.application', 'tornado.general'):
-        logger = logging.getLogger(name)
-        logger.addHandler(_ToRosLog(logging.WARNING))
-        logger.propagate = False
-    logging.getLogger('tornado.access').setLevel(logging.CRITICAL)   # RequestLog says what matters
+    bridge_tornado_logs(lambda text: rospy.logwarn('battery_dashboard: %s', text),
+                        lambda text: rospy.logerr('battery_dashboard: %s', text))
     with signals_held():
         settings = init_node('battery_dashboard', read_settings)
         hub = Hub(settings['history_s'], settings['allow_control'])
@@ -196,9 +189,9 @@ def main():
         try:
             make_app(hub, settings['host'], settings['port'], warn=lambda text: rospy.logwarn('battery_dashboard: %s', text)
                      ).listen(settings['port'], address=settings['host'], **server_options())
-            if not os.path.isdir(CHART_JS_DIR):
-                rospy.logwarn('battery_dashboard: the chart library is missing (%s; Debian package libjs-chart.js): '
-                              'the battery pages say so instead of drawing charts', CHART_JS_DIR)
+            problem = chart_library_problem()
+            if problem:
+                rospy.logwarn('battery_dashboard: %s', problem)
         except OSError as error:
             if error.errno == errno.EADDRINUSE:
                 problem = 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (

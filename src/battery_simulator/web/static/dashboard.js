@@ -236,14 +236,15 @@ function batteryPage() {
     showFields(root, battery);
     showLevel(root, battery);
     const sim = battery.sim || {};
-    const text = (field, value) => { root.querySelector('[data-field="' + field + '"]').textContent = value; };
-    text('charge', battery.fields.charge);
-    text('capacity', battery.fields.capacity);
-    text('health', battery.fields.health);
+    const outOfRange = battery.out_of_range || [];
+    const text = (field, value) => {
+      const node = root.querySelector('[data-field="' + field + '"]');
+      node.textContent = value;
+      node.classList.toggle('out-of-range', outOfRange.includes(field));
+    };
+    for (const field of ['charge', 'capacity', 'health', 'cycle_count', 'state_of_health']) text(field, battery.fields[field]);
     text('faults', sim.active_faults === undefined ? '-' : (sim.active_faults.join(', ') || 'none'));
     text('cut_off', sim.cut_off === undefined ? '-' : (sim.cut_off || 'none'));
-    text('cycle_count', typeof sim.cycle_count === 'number' ? sim.cycle_count.toFixed(2) : '-');
-    text('state_of_health', typeof sim.state_of_health === 'number' ? (100 * sim.state_of_health).toFixed(1) + ' %' : '-');
     text('period', battery.period_s ? battery.period_s.toFixed(2) + ' s' : '-');
     text('host', battery.host || '-');
     showControls(battery);
