@@ -240,3 +240,23 @@ def test_prediction_copies_leave_the_battery_alone_and_state_round_trips():
     again, _, _ = battery(percentage=20.0)
     again.resume(saved)
     assert again.record().percentage == pytest.approx(b.record().percentage)
+
+
+def test_the_publishers_rule_over_the_latest_state():
+    from types import SimpleNamespace
+
+    from battery_simulator.core.latest_state import LatestState
+    clock, log = Clock(0.0), Log()
+    held = LatestState(3.0, log, 'the battery', 'the server', clock=clock)
+    assert held.to_publish() is None and log.lines[-1] == ('info', 'waiting for the battery')
+    state = SimpleNamespace(sensor_dropout=False)
+    held.take(state)
+    assert held.to_publish() is state and not held.stale()
+    clock.now = 3.5
+    assert held.to_publish() is state and held.stale(), 'stale: still the last known state'
+    assert log.lines[-1][0] == 'warn' and 'no update from the server for 4 s' in log.lines[-1][1]
+    held.take(SimpleNamespace(sensor_dropout=True))
+    assert held.to_publish() is None and 'withheld' in log.lines[-1][1]
+    fresh = SimpleNamespace(sensor_dropout=False)
+    held.take(fresh)
+    assert held.to_publish() is fresh and log.lines[-1] == ('info', 'battery state updates resumed')

@@ -15,10 +15,10 @@ import time
 
 import rospy
 
-from battery_simulator.core.state_file import read_state_file, write_state_file
+# the saving rule's figures are the ROS-free state file's (ROS 2 keeps its state with them too)
+from battery_simulator.core.state_file import (FLEET_SAVE_PERIOD_S, SAVE_EVERY_PERCENT, SAVE_EVERY_S, read_state_file,
+                                               write_state_file)
 
-SAVE_EVERY_PERCENT = 0.1   # save when the level moved this much ...
-SAVE_EVERY_S = 2.0         # ... or this long (wall) has passed
 FILE_EVERY_S = 10.0        # the state file is written at most this often, and at shutdown
 
 
@@ -72,9 +72,6 @@ class StateStore:
             write_state_file(self.state_file, state)
         except OSError as error:
             rospy.logerr_throttle(60.0, 'cannot write state file %s: %s', self.state_file, error)
-
-
-FLEET_SAVE_PERIOD_S = 0.5   # a fleet host writes its robots' states at most this often (one master call)
 
 
 class FleetStore:

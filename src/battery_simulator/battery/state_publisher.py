@@ -27,7 +27,6 @@ server is back.
   - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): status "<node>: Battery"
 """
 import threading
-import time
 
 import rospy
 from diagnostic_updater import DiagnosticStatusWrapper
@@ -38,6 +37,7 @@ from battery_simulator.battery.battery_state import ReceivedState
 from battery_simulator.battery.robot_log import RobotLog
 from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop
 from battery_simulator.core import diagnostics
+from battery_simulator.core.latest_state import LatestState
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.core.settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
 from battery_simulator.msg import BatterySimState
@@ -70,15 +70,13 @@ class BatteryStatePublisher:
                  hysteresis, changes, log=None):
         self.rate = rate
         self._frame_id = frame_id
-        self._stale_timeout_s = stale_timeout
         self._diagnostic_name = node_name.lstrip('/') + ': Battery'
         self._changes = changes
         self._log = log or RobotLog()
         self._lock = threading.Lock()
-        self._latest = None
-        self._received_at = 0.0
+        self._state = LatestState(stale_timeout, self._log, namespace + topics.STATE_TOPIC,
+                                  'the battery_simulator server')
         self._published_status = None
-        self._stale = False
         self._alarms = {
             'low': LevelAlarm(low_percentage, hysteresis),
             'critical': LevelAlarm(critical_percentage, hysteresis),
@@ -106,13 +104,13 @@ class BatteryStatePublisher:
     def latest_battery(self):
         """The latest BatteryState (None before the first), for a fleet's summary."""
         with self._lock:
-            latest = self._latest
+            latest = self._state.latest
         return None if latest is None or latest.sensor_dropout else latest.message().battery
 
     def on_state(self, state):
         """The server's state after an update (a SimState, or a ReceivedState from its topic)."""
         with self._lock:
-            self._latest, self._received_at = state, time.monotonic()
+            self._state.take(state)
             changed = state.power_supply_status != self._published_status
         for name, alarm in self._alarms.items():
             if alarm.update(state.percentage):
@@ -125,22 +123,10 @@ class BatteryStatePublisher:
     def publish_once(self):
         """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
         with self._lock:
-            latest, received_at = self._latest, self._received_at
+            latest = self._state.to_publish()
             if latest is None:
-                self._log.info_throttle(10.0, 'waiting for %s', self._namespace + topics.STATE_TOPIC)
-                return
-            if latest.sensor_dropout:
-                self._log.warn_throttle(10.0, 'sensor_dropout fault active: battery_status withheld')
                 self._published_status = None
                 return
-            age_s = time.monotonic() - received_at
-            if age_s > self._stale_timeout_s:
-                self._log.warn_throttle(10.0, 'battery state is stale: no update from the battery_simulator '
-                                        'server for %.0f s; republishing the last known state', age_s)
-                self._stale = True
-            elif self._stale:
-                self._log.info('battery state updates resumed')
-                self._stale = False
             # The server's message is ours alone (a fresh one per update) and publish() serializes it
             # before returning, so it is restamped in place rather than copied on every tick.
             msg = latest.message().battery
@@ -153,7 +139,7 @@ class BatteryStatePublisher:
         """The "<node>: Battery" diagnostic status (keys as rqt_robot_monitor and dashboards expect)."""
         status = DiagnosticStatusWrapper(name=self._diagnostic_name)
         with self._lock:
-            latest, stale = self._latest, time.monotonic() - self._received_at > self._stale_timeout_s
+            latest, stale = self._state.latest, self._state.stale()
         if latest is None:
             status.summary(*diagnostics.no_data_yet())
             status.hardware_id = 'none'

@@ -53,13 +53,6 @@ class BatteryError(ValueError):
     """A request refused, with the reason a service replies (nothing changed)."""
 
 
-class _Invalid:
-    pass
-
-
-_INVALID = _Invalid()
-
-
 def parse_mode(value):
     """The Mode a mode value (MyRobot/BatteryStatus, ROS 2's ``charging``) asks for, or None if invalid.
     Unset (None) holds: IDLE."""

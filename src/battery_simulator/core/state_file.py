@@ -22,7 +22,7 @@ def write_state_file(path, state):
 
 SAVE_EVERY_PERCENT = 0.1   # save when the level moved this much ...
 SAVE_EVERY_S = 2.0         # ... or this long (wall) has passed
-FLEET_SAVE_PERIOD_S = 0.5  # a fleet's file is written at most this often
+FLEET_SAVE_PERIOD_S = 0.5  # a fleet's saved states (file, or ROS 1's parameter) are written at most this often
 
 
 class StateFileKeeper:

@@ -17,7 +17,6 @@ from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
@@ -27,15 +26,12 @@ from battery_simulator.core.battery_model import Mode
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros import topics
-from battery_simulator.ros2.status_front import RecordState
+from battery_simulator.ros2.status_front import LATCHED_QOS, RecordState
 from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
 
 MODE_PARAMETER = 'charging'
-FEEDBACK_PERIOD_S = 1.0
 LOG_PERIOD_S = 1.0
 JUMP_LOG_PERIOD_S = 10.0   # a clock that jumps back and forth (two /clock publishers) warns this often
-STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 class _ActiveGoal:
@@ -55,7 +51,7 @@ class BatteryFront:
         self._active = None
         self._setting_mode = False
         ns = namespace
-        self._state_pub = node.create_publisher(BatterySimState, ns + topics.STATE_TOPIC, STATE_QOS)
+        self._state_pub = node.create_publisher(BatterySimState, ns + topics.STATE_TOPIC, LATCHED_QOS)
         self._action = ActionServer(node, BatterySim, ns + topics.ACTION, execute_callback=self._not_followed,
                                     goal_callback=lambda goal: GoalResponse.ACCEPT,
                                     handle_accepted_callback=self._accepted,

@@ -72,8 +72,8 @@ def exit_on_startup_error(error, logger=None):
 def ending_quietly():
     """Around a node's main: SIGINT or SIGTERM at any moment (start-up included) ends it without a traceback.
 
-    rclpy's own handlers (installed by rclpy.init) shut the context down; before
-    rclpy.init and after its shutdown, ours turn the signal into SystemExit."""
+    rclpy's own handlers (installed by rclpy.init) shut the context down and then call ours, which raise
+    KeyboardInterrupt in the main thread: caught here, the caller's ``finally`` saves the state."""
     def _stop(signum, frame):
         raise KeyboardInterrupt()
     signal.signal(signal.SIGINT, _stop)

@@ -6,7 +6,6 @@ core BatteryRecord from an in-process battery, or a BatterySimState message
 received from another process); ``publish_once()`` is called at ``rate`` Hz; a
 change of power_supply_status or a service's change goes out at once.
 """
-import time
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -15,6 +14,7 @@ from std_msgs.msg import Bool
 
 from battery_simulator.core import diagnostics
 from battery_simulator.core.battery import fill_fields
+from battery_simulator.core.latest_state import LatestState
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.core.names import DIAGNOSTIC_SUFFIX
 from battery_simulator.ros import topics
@@ -71,13 +71,10 @@ class StatusFront:
         self.rate = rate
         self._node = node
         self._frame_id = frame_id
-        self._stale_timeout_s = stale_timeout
         self._diagnostic_name = diagnostic_name + DIAGNOSTIC_SUFFIX
         self._log = log
-        self._latest = None
-        self._received_at = 0.0
+        self._state = LatestState(stale_timeout, log, 'the battery', 'the battery')
         self._published_status = None
-        self._stale = False
         self._alarms = {'low': LevelAlarm(low_percentage, hysteresis),
                         'critical': LevelAlarm(critical_percentage, hysteresis)}
         self._pub = node.create_publisher(BatteryState, namespace + topics.BATTERY_STATUS, STATUS_QOS)
@@ -90,7 +87,7 @@ class StatusFront:
     def on_state(self, state, publish_now=False):
         """The battery's state after an update; a service's change (``publish_now``) or a status change
         goes out at once."""
-        self._latest, self._received_at = state, time.monotonic()
+        self._state.take(state)
         for name, alarm in self._alarms.items():
             if alarm.update(state.percentage):
                 self._log.info('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * state.percentage)
@@ -101,27 +98,15 @@ class StatusFront:
 
     def latest_battery(self):
         """The latest BatteryState (None before the first, or while a sensor dropout holds it back)."""
-        latest = self._latest
+        latest = self._state.latest
         return None if latest is None or latest.sensor_dropout else latest.message.battery
 
     def publish_once(self):
         """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
-        latest = self._latest
+        latest = self._state.to_publish()
         if latest is None:
-            self._log.info_throttle(10.0, 'waiting for the battery')
-            return
-        if latest.sensor_dropout:
-            self._log.warn_throttle(10.0, 'sensor_dropout fault active: battery_status withheld')
             self._published_status = None
             return
-        age_s = time.monotonic() - self._received_at
-        if age_s > self._stale_timeout_s:
-            self._log.warn_throttle(10.0, 'battery state is stale: no update from the battery for %.0f s; '
-                                    'republishing the last known state', age_s)
-            self._stale = True
-        elif self._stale:
-            self._log.info('battery state updates resumed')
-            self._stale = False
         msg = latest.message.battery
         msg.header.stamp = self._node.get_clock().now().to_msg()
         msg.header.frame_id = self._frame_id
@@ -131,12 +116,12 @@ class StatusFront:
     def diagnostic_status(self):
         """The "<node>: Battery" status (core/diagnostics.py's keys and levels)."""
         status = DiagnosticStatus(name=self._diagnostic_name)
-        latest = self._latest
+        latest = self._state.latest
         if latest is None:
             level, status.message = diagnostics.no_data_yet()
             status.level, status.hardware_id = bytes([level]), 'none'
             return status
-        stale = time.monotonic() - self._received_at > self._stale_timeout_s
+        stale = self._state.stale()
         msg = latest.message
         status.hardware_id = msg.battery.serial_number or 'none'
         level, status.message = diagnostics.battery_level(msg, stale, self._alarms['low'].threshold,
