@@ -1,5 +1,5 @@
 #!/usr/bin/python3
 """Many simulated batteries in one process (battery_fleet)."""
-from battery_simulator.battery.fleet_host import main
+from battery_simulator.ros1.fleet_host import main
 
 main()

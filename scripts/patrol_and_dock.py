@@ -1,5 +1,5 @@
 #!/usr/bin/python3
 """The demo behaviour: patrol, dock when low, charge, undock (patrol_and_dock)."""
-from battery_simulator.robot.patrol_and_dock import main
+from battery_simulator.ros1.patrol_and_dock import main
 
 main()

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
 """Publishes /clock running ~speed times as fast as wall time (sim_clock)."""
-from battery_simulator.robot.sim_clock import main
+from battery_simulator.ros1.sim_clock import main
 
 main()

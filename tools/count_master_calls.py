@@ -26,7 +26,7 @@ def counted(self, name, params):
         counts[name] += 1
     return request(self, name, params)
 xmlrpc.client.ServerProxy._ServerProxy__request = counted
-from battery_simulator.battery import fleet_host
+from battery_simulator.ros1 import fleet_host
 original_loginfo = rospy.loginfo
 def loginfo(text, *args):
     original_loginfo(text, *args)

@@ -8,7 +8,7 @@ genpy = pytest.importorskip('genpy')
 from battery_simulator.core.battery_model import BatteryModel, Mode
 from battery_simulator.core.parameters import preset
 
-battery_state = pytest.importorskip('battery_simulator.battery.battery_state',
+battery_state = pytest.importorskip('battery_simulator.ros1.messages',
                                     reason='needs the devel space (tools/run_tests.sh)')
 BatteryState = battery_state.BatteryState
 PACK = preset('lg_hg2_3s1p')

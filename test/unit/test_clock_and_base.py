@@ -6,9 +6,9 @@ import pytest
 
 from battery_simulator.core.time_base import TimeBase
 
-sim_clock = pytest.importorskip('battery_simulator.robot.sim_clock', reason='needs the devel space')
-fake_base = pytest.importorskip('battery_simulator.robot.fake_base')
-patrol = pytest.importorskip('battery_simulator.robot.patrol_and_dock')
+sim_clock = pytest.importorskip('battery_simulator.ros1.sim_clock', reason='needs the devel space')
+fake_base = pytest.importorskip('battery_simulator.ros1.fake_base')
+patrol = pytest.importorskip('battery_simulator.ros1.patrol_and_dock')
 
 
 def test_ros_time_is_counted_in_ticks_so_it_never_drifts():

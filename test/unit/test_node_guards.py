@@ -4,8 +4,8 @@ from unittest import mock
 
 import pytest
 
-startup = pytest.importorskip('battery_simulator.ros.startup', reason='needs the devel space (tools/run_tests.sh)')
-action_server = pytest.importorskip('battery_simulator.battery.action_server')
+startup = pytest.importorskip('battery_simulator.ros1.startup', reason='needs the devel space (tools/run_tests.sh)')
+action_server = pytest.importorskip('battery_simulator.ros1.action_server')
 BatteryState = pytest.importorskip('sensor_msgs.msg').BatteryState
 
 

@@ -116,7 +116,7 @@ def test_a_config_without_a_preset_builds_on_the_default_preset(tmp_path):
 
 
 def test_numeric_text_from_roslaunch_is_read_as_a_number():
-    ros_parameters = pytest.importorskip('battery_simulator.ros.startup')
+    ros_parameters = pytest.importorskip('battery_simulator.ros1.startup')
     assert ros_parameters.number_from_text('1e9') == 1e9
     assert ros_parameters.number_from_text(' 22 ') == 22.0
     assert ros_parameters.number_from_text('fast') == 'fast'

@@ -17,8 +17,8 @@ from array import array
 
 import pytest
 
-from battery_simulator.battery import prediction_worker
-from battery_simulator.battery.prediction_worker import Busy, PredictionPool, WorkerFailed
+from battery_simulator.core import prediction_worker
+from battery_simulator.core.prediction_worker import Busy, PredictionPool, WorkerFailed
 from battery_simulator.core.battery_model import BatteryModel
 from battery_simulator.core.parameters import preset
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
@@ -240,7 +240,7 @@ def test_stop_ends_the_workers_and_refuses_what_waits(pools):
 PARENT = textwrap.dedent('''
     import os, signal, sys, threading, time, pickle
     from array import array
-    from battery_simulator.battery import prediction_worker
+    from battery_simulator.core import prediction_worker
     from battery_simulator.core.battery_model import BatteryModel
     from battery_simulator.core.parameters import preset
     signal.signal(signal.SIGINT, lambda *_: os._exit(0))   # a node ends on SIGINT (and its workers follow)
@@ -292,7 +292,7 @@ def test_a_worker_ends_with_its_parent_without_a_traceback(busy, how):
 
 def test_a_raw_request_keeps_the_arrays_bytes_and_refuses_too_many_before_unpacking():
     pytest.importorskip('genpy')
-    service = pytest.importorskip('battery_simulator.battery.prediction_service',
+    service = pytest.importorskip('battery_simulator.ros1.prediction_service',
                                   reason='needs the devel space (tools/run_tests.sh)')
     import io
     from battery_simulator.core.prediction import MAX_SEGMENTS

@@ -5,9 +5,12 @@ import argparse
 import math
 import signal
 import sys
+from collections import namedtuple
 
 CHOICES = {'1': True, 'charge': True, '0': False, 'discharge': False}
 ROS_REMAP = ':='   # name:=value arguments are roslaunch's, not ours (as rospy.myargv drops them)
+#: what the runners (ros1/client.py, ros2/client.py) take: plain values, no parser
+GoalRequest = namedtuple('GoalRequest', 'charge timeout server_timeout')
 
 
 def _seconds(minimum_exclusive):
@@ -36,6 +39,12 @@ def parse_arguments(argv):
     return parser.parse_args(argv)
 
 
+def goal_request(argv):
+    """The GoalRequest of a command line (argparse exits 2 with its usage on a bad one)."""
+    args = parse_arguments(argv)
+    return GoalRequest(CHOICES[args.goal], args.timeout, args.server_timeout)
+
+
 def _quit_while_starting(signum, frame):
     sys.exit(130)   # no goal sent yet: nothing to cancel
 
@@ -44,6 +53,6 @@ def main(argv=None):
     signal.signal(signal.SIGINT, _quit_while_starting)
     signal.signal(signal.SIGTERM, _quit_while_starting)
     argv = sys.argv[1:] if argv is None else argv
-    args = parse_arguments([arg for arg in argv if ROS_REMAP not in arg])
-    from battery_simulator.cli import client   # replaces the handlers once it can cancel a goal
-    client.run(args)
+    request = goal_request([arg for arg in argv if ROS_REMAP not in arg])
+    from battery_simulator.ros1 import client   # rospy's imports after the arguments; it replaces the handlers
+    client.run(request)

@@ -1,4 +1,2 @@
-"""The demo robot's side: a kinematic base, the dock contact, the cut-off gate, patrol and dock."""
-from battery_simulator.node_signals import end_nodes_on_signals
-
-end_nodes_on_signals()   # before the nodes import rospy: no signal lost while they start
+"""The robot's loop without ROS: the cut-off gate's rule, contact from a pose, the patrol-and-dock phases,
+the clock's tick policy, the kinematic base (each front end adapts them: ros1/, ros2/)."""

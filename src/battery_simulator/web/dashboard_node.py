@@ -34,8 +34,8 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatteryFleetState, BatterySimState
-from battery_simulator.ros import topics
-from battery_simulator.ros.startup import (StartupError, checked_param, exit_on_startup_error, init_node, is_number,
+from battery_simulator.core import topics
+from battery_simulator.ros1.startup import (StartupError, checked_param, exit_on_startup_error, init_node, is_number,
                                            signals_held)
 from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,

@@ -17,7 +17,7 @@ import time
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
 
-from battery_simulator.ros.startup import ending_the_node_on_error
+from battery_simulator.ros1.startup import ending_the_node_on_error
 
 URGENT_GAP_S = 0.02          # at most one immediate battery_status per battery per this
 DIAGNOSTIC_PERIOD_S = 0.5    # diagnostics at least this often (wall time: a paused sim clock does not stop them)

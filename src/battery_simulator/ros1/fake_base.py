@@ -26,8 +26,8 @@ import tf2_ros
 from geometry_msgs.msg import Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
-from battery_simulator.ros import topics
-from battery_simulator.ros.startup import checked_param, init_node, is_number
+from battery_simulator.core import topics
+from battery_simulator.ros1.startup import checked_param, init_node, is_number
 
 
 def read_settings():

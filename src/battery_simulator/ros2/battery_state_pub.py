@@ -22,12 +22,14 @@ from rclpy.node import Node
 
 from battery_simulator.core.parameters import is_number
 from battery_simulator.msg import BatterySimState
-from battery_simulator.ros import topics
-from battery_simulator.ros2.battery_node import OneBattery, publish_diagnostics, read_publisher_settings, steady_clock
-from battery_simulator.ros2.node_log import NodeLog
+from battery_simulator.core import topics
+from battery_simulator.ros2.battery_sim import OneBattery, publish_diagnostics, read_publisher_settings, steady_clock
+from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (StartupError, ending_quietly, exit_on_startup_error, parameter_name,
                                             spin)
-from battery_simulator.ros2.status_front import STATUS_QOS, ReceivedState, StatusFront
+from battery_simulator.ros2.messages import ReceivedState
+from battery_simulator.ros2.qos import STATUS_QOS
+from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 BATTERY_NODE = 'battery_simulator'
 
@@ -64,7 +66,7 @@ def main(args=None):
         try:
             if wait_for_battery_node(node, executor, wait_s):
                 publisher = read_publisher_settings(node)
-                status = StatusFront(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **publisher)
+                status = BatteryStatePublisher(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **publisher)
                 node.create_subscription(BatterySimState, topics.STATE_TOPIC,
                                          lambda msg: status.on_state(ReceivedState(msg), msg.publish_now),
                                          STATUS_QOS)

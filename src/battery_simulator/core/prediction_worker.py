@@ -7,7 +7,7 @@ for one-hour plans delayed robot1's contact -> CHARGING from 4 ms to about
 of ROS imported there):
 
   - A worker is a fresh interpreter (``python3 -m
-    battery_simulator.battery.prediction_worker FD PID``, not a fork of a
+    battery_simulator.core.prediction_worker FD PID``, not a fork of a
     process full of threads) that imports only the core. It gets each job
     over a socket pair: a pickled copy of the model (5 kB), how far it is
     behind, the loads to drop, the plan's arrays (raw little-endian float64

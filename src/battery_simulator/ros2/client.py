@@ -12,7 +12,7 @@ import signal
 import sys
 import time
 
-from battery_simulator.cli.client_cli import CHOICES, parse_arguments
+from battery_simulator.cli.client_cli import goal_request
 
 STEP_S = 0.1
 
@@ -25,7 +25,7 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     ros_args = argv[argv.index('--ros-args'):] if '--ros-args' in argv else []
     ours = argv[:argv.index('--ros-args')] if ros_args else argv
-    args = parse_arguments(ours)
+    args = goal_request(ours)
 
     def _stop(signum, frame):
         raise _Stop()
@@ -39,14 +39,14 @@ def main(argv=None):
 
     from battery_simulator.action import BatterySim
     from battery_simulator.cli.progress import ProgressPrinter
-    from battery_simulator.ros2.status_front import STATUS_QOS
+    from battery_simulator.ros2.qos import STATUS_QOS
 
     rclpy.init(args=['battery_sim_client'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node('battery_sim_client')
     client = ActionClient(node, BatterySim, 'battery_simulator')
     printer = ProgressPrinter(sys.stdout)
     node.create_subscription(BatteryState, 'battery_status', lambda msg: setattr(printer, 'state', msg), STATUS_QOS)
-    charge = CHOICES[args.goal]
+    charge = args.charge
     goal_handle = None
     code = 1
     try:

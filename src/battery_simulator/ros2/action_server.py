@@ -25,8 +25,9 @@ from battery_simulator.core.battery import BatteryError, Goal, GoalEnd
 from battery_simulator.core.battery_model import Mode
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
 from battery_simulator.msg import BatterySimState
-from battery_simulator.ros import topics
-from battery_simulator.ros2.status_front import LATCHED_QOS, RecordState
+from battery_simulator.core import topics
+from battery_simulator.ros2.messages import SimState
+from battery_simulator.ros2.qos import LATCHED_QOS
 from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
 
 MODE_PARAMETER = 'charging'
@@ -39,12 +40,12 @@ class _ActiveGoal:
         self.handle, self.goal = handle, goal
 
 
-class BatteryFront:
+class BatterySimServer:
     """One battery's action, services, subscriptions, ``charging`` and live parameters on ``node``."""
 
     def __init__(self, node, battery, namespace, log, status=None, store=None):
         """``namespace``: '' for the node's own names, 'robot3/' in a fleet host's shared node;
-        ``status``: the StatusFront fed at every update; ``store``: a saved-state keeper (maybe_save/save_now)."""
+        ``status``: the BatteryStatePublisher fed at every update; ``store``: a saved-state keeper (maybe_save/save_now)."""
         self.node, self.battery, self._log = node, battery, log
         self._status = status
         self._store = store
@@ -100,9 +101,9 @@ class BatteryFront:
             publishers = [info.node_name for info in self.node.get_publishers_info_by_topic('/clock')]
             self._log.warn_throttle(JUMP_LOG_PERIOD_S, '%s', update.time_jump_warning(
                 self.battery.max_time_jump, publishers))
-        state = RecordState(update.record, BatterySimState)
+        state = SimState(update.record)
         if self._state_pub.get_subscription_count() > 0:
-            self._state_pub.publish(state.message)
+            self._state_pub.publish(state.message())
         if self._status is not None:
             self._status.on_state(state, publish_now)
         if self._store is not None:

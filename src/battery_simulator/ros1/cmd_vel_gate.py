@@ -20,7 +20,7 @@ import rospy
 from geometry_msgs.msg import Twist
 
 from battery_simulator.msg import BatterySimState
-from battery_simulator.ros import topics
+from battery_simulator.core import topics
 
 
 class CmdVelGate:

@@ -21,7 +21,6 @@ from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import BatteryState
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from battery_simulator.cli.client_cli import CHOICES
 from battery_simulator.cli.progress import ProgressPrinter
 from battery_simulator.cli.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
 
@@ -103,8 +102,9 @@ def _exit(code, text, stream=sys.stderr):
 
 
 def run(args):
-    """Send the goal that client_cli.parse_arguments read, and wait for its end."""
-    charge = CHOICES[args.goal]
+    """Send the goal of ``args`` (a cli/client_cli.py GoalRequest: charge, timeout, server_timeout) and wait
+    for its end."""
+    charge = args.charge
     stop = StopRequest()
     signal.signal(signal.SIGINT, stop.handle)
     signal.signal(signal.SIGTERM, stop.handle)   # SIGTERM cancels the goal, as Ctrl-C does

@@ -15,8 +15,8 @@ import struct
 import genpy
 import rospy
 
-from battery_simulator.battery import prediction_worker
-from battery_simulator.battery.prediction_worker import Busy, WorkerFailed
+from battery_simulator.core import prediction_worker
+from battery_simulator.core.prediction_worker import Busy, WorkerFailed
 from battery_simulator.core.prediction import FIELDS, MAX_SEGMENTS, PredictionError, too_many_segments
 from battery_simulator.srv import Predict, PredictRequest, PredictResponse
 

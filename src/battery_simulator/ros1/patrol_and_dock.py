@@ -33,8 +33,8 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, String
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from battery_simulator.ros import topics
-from battery_simulator.ros.startup import checked_param, init_node, is_number
+from battery_simulator.core import topics
+from battery_simulator.ros1.startup import checked_param, init_node, is_number
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 CONTROL_RATE_HZ = 20.0

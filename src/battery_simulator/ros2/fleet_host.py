@@ -33,18 +33,19 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
+from battery_simulator.core.battery_log import resume_battery
 from battery_simulator.core.fleet import FleetError, robot_params, robot_specs
 from battery_simulator.core.parameters import is_number
 from battery_simulator.core.state_file import FleetStateFile
 from battery_simulator.msg import BatteryFleetState
-from battery_simulator.ros2.battery_front import BatteryFront
-from battery_simulator.ros2.battery_node import (STARTUP_SETTINGS, TIME_SCALE, declare_live, declare_mode,
+from battery_simulator.ros2.action_server import BatterySimServer
+from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, declare_live, declare_mode,
                                                  diagnostics_publisher, load_config, make_battery,
                                                  read_publisher_settings, steady_clock)
-from battery_simulator.ros2.node_log import NodeLog
+from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
                                             parameter_name, spin)
-from battery_simulator.ros2.status_front import StatusFront
+from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 FLEET_STATES = '/battery_fleet/states'
 FLEET_DIAGNOSTIC_PERIOD_S = 1.0   # a fleet's DiagnosticArray (every robot's status) once a second
@@ -122,16 +123,9 @@ class Robot:
         self.battery = make_battery(self.node, battery_settings, params, charging, self.log)
         declare_live(self.node, self.battery)
         self.store = store.robot(spec.name)
-        saved = self.store.load()
-        self.resumed = False
-        if saved is not None:
-            try:
-                self.battery.resume(saved)
-                self.resumed = True
-            except ValueError as error:
-                self.log.warn('not resuming: %s; starting at %.1f %%', error, spec.initial_percentage)
-        self.status = StatusFront(self.node, '', spec.name + '/battery_state_pub', log=self.log, **settings.publisher)
-        self.front = BatteryFront(self.node, self.battery, '', self.log, self.status, self.store)
+        self.resumed = resume_battery(self.battery, self.store.load(), 'the fleet state file', self.log) is not None
+        self.status = BatteryStatePublisher(self.node, '', spec.name + '/battery_state_pub', log=self.log, **settings.publisher)
+        self.front = BatterySimServer(self.node, self.battery, '', self.log, self.status, self.store)
         self.node.add_on_set_parameters_callback(self.front.on_set_parameters)
 
 

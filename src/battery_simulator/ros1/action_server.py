@@ -44,55 +44,32 @@ act on the model through the same lock.
   state it changed on battery_status (publish_now, acknowledged on status_sent; without
   a battery_state_pub, once it is published), so the next battery_status shows the change.
 """
-import math
 import threading
 import time
 from contextlib import contextmanager
 
 import actionlib
 import rospy
-from dynamic_reconfigure.server import Server as ReconfigureServer
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, UInt64
-from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
-from battery_simulator.battery import prediction_service
-from battery_simulator.battery.battery_state import SimState
-from battery_simulator.battery.robot_log import RobotLog
-from battery_simulator.battery.saved_state import StateStore
-from battery_simulator.battery.workers import StatusTimer, UpdateLoop
-from battery_simulator.cfg import BatterySimConfig
-from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, MOTION_LOAD, UNREADABLE, Battery,
+from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery,
                                             BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage)
+from battery_simulator.core.battery_log import resume_battery, say_ready
+from battery_simulator.core import topics
 from battery_simulator.core.battery_model import Mode
-from battery_simulator.core.parameters import ParameterError, load_yaml
-from battery_simulator.core.settings import BATTERY_SETTINGS
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
-from battery_simulator.ros import topics
-from battery_simulator.ros.cached_param import CachedParam
-from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, clock_publishers,
-                                           exit_on_startup_error, init_node, read_private_settings, signals_held,
-                                           wait_for_rosout)
-from battery_simulator.srv import (InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState,
-                                   SetStateResponse)
+from battery_simulator.ros1.cached_param import CachedParam
+from battery_simulator.ros1.log import RobotLog
+from battery_simulator.ros1.messages import SimState
+from battery_simulator.ros1.services import BatteryServices
+from battery_simulator.ros1.startup import clock_publishers
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
 LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
 JUMP_LOG_PERIOD_S = 10.0       # a clock that jumps back and forth (two /clock publishers) warns this often
-__all__ = ['BatterySimServer', 'read_settings', 'main', 'noisy_current', 'noisy_voltage']
-
-
-def read_settings():
-    """All start-up parameters (core/settings.py BATTERY_SETTINGS), checked; raises StartupError."""
-    settings = read_private_settings(BATTERY_SETTINGS)
-    try:
-        settings['params'] = load_yaml(settings['config'])
-    except ParameterError as error:
-        raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), settings['config'],
-                                                                 error)) from None
-    settings['params_path'] = settings.pop('config')
-    return settings
+__all__ = ['BatterySimServer', 'noisy_current', 'noisy_voltage']
 
 
 class BatterySimServer:
@@ -167,15 +144,7 @@ class BatterySimServer:
     def _resume(self):
         """Resume a saved state (after a respawn, or from ~state_file); where from, or None."""
         saved, where = self._store.load()
-        if saved is None:
-            return None
-        try:
-            self.battery.resume(saved)
-        except ValueError as error:
-            self._log.warn('not resuming from %s: %s; starting at %.1f %%', where, error,
-                           self.battery.initial_percentage)
-            return None
-        return where
+        return resume_battery(self.battery, saved, where, self._log)
 
     def start(self):
         ns = self._ns
@@ -184,38 +153,22 @@ class BatterySimServer:
         if not self._state_listeners:   # battery_state_pub is another process: it acknowledges on a topic
             self._sent_sub = rospy.Subscriber(ns + topics.STATUS_SENT, UInt64,
                                               lambda msg: self.on_status_sent(msg.data), queue_size=10)
-        self._services = [
-            rospy.Service(ns + topics.SET_LOAD, SetLoad, self._set_load),
-            rospy.Service(ns + topics.SET_CHARGING, SetBool, self._set_charging),
-            rospy.Service(ns + topics.SET_STATE, SetState, self._set_state),
-            rospy.Service(ns + topics.RESET, Trigger, self._reset),
-            rospy.Service(ns + topics.INJECT_FAULT, InjectFault, self._inject_fault),
-            prediction_service.advertise(ns + topics.PREDICT, self._predict),
-        ]
+        self._services = BatteryServices(self, ns, self._node_name, self._log)
         self._publish_state(self.battery.record())
         self._server.start()
         self._status_timer.add(self._server)
-        self._reconfigure = _LiveSettings(self.battery.live_values(), self._reconfigure_callback,
-                                          namespace=self._node_name + '/')
+        self._services.start_live_settings()
 
     def report_ready(self, resumed_only=False):
         """The start-up lines (after /rosout listens): resumed, and ready unless ``resumed_only``."""
-        snapshot = self.battery.snapshot_now()
-        if self._resumed_from:
-            self._log.info('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',
-                           self._resumed_from, snapshot.percentage, snapshot.cycle_count,
-                           100.0 * snapshot.state_of_health)
-        if not resumed_only:
-            self._log.info('battery_simulator ready: %s, %.1f %%, %s, %s', self.params.name, snapshot.percentage,
-                           snapshot.status.value,
-                           'ROS time' if self.battery.sim_time else 'time x%g' % self.battery.time_scale)
+        say_ready(self.battery, self._log, self._resumed_from, resumed_only)
 
     def _wake_up(self):
         """Update and publish now (callers may hold the battery's lock: the loop's lock is taken after it)."""
         self._loop.wake(self)
 
     @contextmanager
-    def _service_change(self):
+    def service_change(self):
         """Hold the battery's lock around a service's change. The model is first stepped to now; after the
         change the next update carries it and battery_state_pub sends it on battery_status at once.
         Waits (bounded) until it has, so the caller's reply comes after that battery_status (without
@@ -367,14 +320,9 @@ class BatterySimServer:
             self._log.error_throttle(10.0, '%s', error)
 
     def _on_contact(self, msg):
-        self._change_contact(bool(msg.data), 'charger contact')
+        self.change_contact(bool(msg.data), 'charger contact')
 
-    def _set_charging(self, request):
-        with self._service_change():
-            self._change_contact(bool(request.data), 'set_charging')
-        return SetBoolResponse(success=True, message='charger %s' % ('connected' if request.data else 'disconnected'))
-
-    def _change_contact(self, connected, source):
+    def change_contact(self, connected, source):
         """Only a change acts: connected -> charge, disconnected -> discharge (the parameter follows)."""
         with self._lock:
             changed = self.battery.change_contact(connected, source)
@@ -384,63 +332,6 @@ class BatterySimServer:
         if changed:
             self._log.info_throttle(LOG_PERIOD_S, '%s: charger %s', source,
                                     'connected' if connected else 'disconnected')
-
-    def _service(self, response_class, change):
-        """Run a service's ``change()`` (its reply's text) as a published change; a refusal replies
-        success false with the battery's reason."""
-        try:
-            with self._service_change():
-                message = change()
-        except BatteryError as error:
-            return response_class(success=False, message=str(error))
-        return response_class(success=True, message=message)
-
-    def _set_load(self, request):
-        return self._service(SetLoadResponse, lambda: self.battery.set_load(request.name, request.power_w))
-
-    def _set_state(self, request):
-        return self._service(SetStateResponse, lambda: self.battery.set_state(
-            request.percentage, request.temperature_c, request.state_of_health, request.gauge_error))
-
-    def _reset(self, request):
-        return self._service(TriggerResponse, self.battery.reset)
-
-    def _inject_fault(self, request):
-        return self._service(InjectFaultResponse, lambda: self.battery.inject_fault(request.fault, request.active))
-
-    def _predict(self, request):
-        """What the request's plan would do, from a copy of the model taken under the lock, computed in the
-        process's prediction workers (prediction_service.py): the copy is brought to now at its present
-        loads, and the plan's motion takes the place of cmd_vel's. Changes nothing."""
-        model, behind_s = self.battery.model_for_prediction_pickled()
-        return prediction_service.answer(self._ns, request, model, behind_s, dropped_loads=(MOTION_LOAD,))
-
-    def _reconfigure_callback(self, config, level):
-        """Apply live changes, validated like the start-up values: a refused value is logged and the old one kept.
-
-        The .cfg gives no bounds, so dynamic_reconfigure clamps nothing before this check.
-        """
-        with self._service_change():   # the time so far at the old settings (and time_scale)
-            in_force = self.battery.live_values()
-            for name, value in in_force.items():
-                if config[name] != value:
-                    try:
-                        self.battery.set_live(name, config[name])
-                    except BatteryError as error:
-                        self._log.error('dynamic_reconfigure: %s', error)
-            config.update(self.battery.live_values())
-        return config
-
-class _LiveSettings(ReconfigureServer):
-    """dynamic_reconfigure's server, starting from the values in force rather than from the parameter
-    server (which would impose the .cfg defaults, and cost 14 master calls a robot in a fleet host)."""
-
-    def __init__(self, values, callback, namespace):
-        self._values_in_force = values
-        super().__init__(BatterySimConfig, callback, namespace=namespace)
-
-    def _copy_from_parameter_server(self):
-        self.config.update(self._values_in_force)
 
 
 class _LatestStateOnConnect(rospy.SubscribeListener):
@@ -452,24 +343,3 @@ class _LatestStateOnConnect(rospy.SubscribeListener):
         state = self._server._latest_state
         if state is not None:
             peer_publish(state.message())
-
-
-def main():
-    with signals_held():
-        settings = init_node('BatterySimServer', read_settings)
-        try:
-            check_one_battery_per_name([rospy.get_namespace()])
-        except StartupError as error:
-            exit_on_startup_error(error)
-        settings.pop('params_path')
-        loop = UpdateLoop(settings.pop('update_rate'))
-        store = StateStore(rospy.resolve_name('~saved_state'), settings.pop('state_file'))
-        server = BatterySimServer(rospy.get_namespace(), rospy.get_name(), store=store, loop=loop,
-                                  status_timer=StatusTimer(), **settings)
-        rospy.on_shutdown(loop.stop)   # client hooks run before rospy closes the topics
-        loop.start()     # first: dynamic_reconfigure's first callback waits for an update
-        server.start()
-        wait_for_rosout()
-        server.report_ready()
-    rospy.spin()
-    loop.stop()

@@ -1,19 +1,43 @@
-"""Building one ROS 2 battery: its settings, its core Battery, its fronts and timers
-(shared by ``battery_sim`` and a lone ``battery_state_pub``)."""
+"""``battery_sim`` (ROS 2): one battery in one process, the two roles of sim.launch (OneBattery, shared with a lone battery_state_pub).
+
+    ros2 run battery_simulator battery_sim [--ros-args -r __ns:=/robot1 -p time_scale:=100 ...]
+
+Nodes ``battery_simulator`` (the model, the action ``battery_simulator``, the
+services, ``cmd_vel``, ``charger_contact``, the ``charging`` parameter and the
+live settings) and ``battery_state_pub`` (``battery_status``, ``battery_low``,
+``battery_critical``, ``/diagnostics``). docs/ros2.md lists every name.
+
+:Parameters of battery_simulator:
+  - ``config`` (str, read-only): battery YAML (default: the package's config/battery.yaml)
+  - ``time_scale`` (float > 0, live): simulated seconds per wall second (default 22; ignored under use_sim_time)
+  - ``update_rate`` (float, Hz, read-only): model updates per second (default 10)
+  - ``initial_percentage`` (float 0-100, read-only): charge at start (default 100)
+  - ``state_file`` (str, read-only): JSON file the state is saved to and resumed from
+  - ``charging`` (bool, live): the mode; a goal writes it
+  - ``load_current_a``, ``load_power_w``, ``charge_current_a``, ``ambient_temperature_c``,
+    ``drive_power_w_per_mps``, ``turn_power_w_per_radps`` (float, live): override the config
+:Parameters of battery_state_pub:
+  - ``rate``, ``frame_id``, ``stale_timeout``, ``low_percentage``, ``critical_percentage``, ``hysteresis``
+"""
 import time
 
+import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.clock import Clock, ClockType
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 
 from battery_simulator.core.battery import LIVE_PARAMETERS, Battery, BatteryError
+from battery_simulator.core.battery_log import resume_battery, say_ready
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.core.settings import (BATTERY_SETTINGS, PUBLISHER_SETTINGS, Setting, SettingError,
                                              check_publisher_settings)
 from battery_simulator.core.state_file import StateFileKeeper
-from battery_simulator.ros2.battery_front import MODE_PARAMETER, BatteryFront
-from battery_simulator.ros2.node_log import NodeLog
-from battery_simulator.ros2.startup import StartupError, declare_bool, declare_settings, descriptor, parameter_name
-from battery_simulator.ros2.status_front import StatusFront
+from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer
+from battery_simulator.ros2.log import NodeLog
+from battery_simulator.ros2.startup import (StartupError, declare_bool, declare_settings, descriptor, ending_quietly,
+                                            exit_on_startup_error, parameter_name, spin)
+from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 DIAGNOSTIC_PERIOD_S = 0.5
 #: the battery settings a ROS 2 node reads at start-up (``charging`` is the live mode parameter instead)
@@ -88,9 +112,9 @@ class OneBattery:
         declare_live(battery_node, self.battery)
         self.store = StateFileKeeper(settings['state_file'], self.log.warn) if settings['state_file'] else None
         self.resumed = self._resume()
-        self.status = StatusFront(status_node, '', status_node.get_fully_qualified_name().lstrip('/'),
+        self.status = BatteryStatePublisher(status_node, '', status_node.get_fully_qualified_name().lstrip('/'),
                                   log=NodeLog(status_node.get_logger()), **publisher)
-        self.front = BatteryFront(battery_node, self.battery, '', self.log, self.status, self.store)
+        self.front = BatterySimServer(battery_node, self.battery, '', self.log, self.status, self.store)
         battery_node.add_on_set_parameters_callback(self.front.on_set_parameters)
         battery_node.create_timer(1.0 / settings['update_rate'], self.front.update, clock=steady_clock())
         status_node.create_timer(1.0 / publisher['rate'], self.status.publish_once, clock=steady_clock())
@@ -100,25 +124,10 @@ class OneBattery:
     def _resume(self):
         if self.store is None:
             return None
-        saved = self.store.load()
-        if saved is None:
-            return None
-        try:
-            self.battery.resume(saved)
-        except ValueError as error:
-            self.log.warn('not resuming from %s: %s; starting at %.1f %%', self.store.path, error,
-                          self.battery.initial_percentage)
-            return None
-        return self.store.path
+        return resume_battery(self.battery, self.store.load(), self.store.path, self.log)
 
     def report_ready(self):
-        snapshot = self.battery.snapshot_now()
-        if self.resumed:
-            self.log.info('battery_simulator resumed from %s: %.1f %%, %.2f cycles, state of health %.1f %%',
-                          self.resumed, snapshot.percentage, snapshot.cycle_count, 100.0 * snapshot.state_of_health)
-        self.log.info('battery_simulator ready: %s, %.1f %%, %s, %s', self.battery.params.name, snapshot.percentage,
-                      snapshot.status.value,
-                      'ROS time' if self.battery.sim_time else 'time x%g' % self.battery.time_scale)
+        say_ready(self.battery, self.log, self.resumed)
 
 
 def diagnostics_publisher(node, status_fronts):
@@ -135,3 +144,26 @@ def diagnostics_publisher(node, status_fronts):
 def publish_diagnostics(node, status_fronts):
     """The diagnostics twice a second, on a timer of their own (one battery)."""
     return node.create_timer(DIAGNOSTIC_PERIOD_S, diagnostics_publisher(node, status_fronts), clock=steady_clock())
+
+
+def main(args=None):
+    with ending_quietly():
+        rclpy.init(args=args)
+        battery_node = Node('battery_simulator')
+        status_node = Node('battery_state_pub')
+        try:
+            one = OneBattery(battery_node, status_node)
+        except StartupError as error:
+            exit_on_startup_error(error, battery_node.get_logger())
+        executor = SingleThreadedExecutor()
+        executor.add_node(battery_node)
+        executor.add_node(status_node)
+        one.report_ready()
+        try:
+            spin(executor)
+        finally:
+            one.front.finish()
+
+
+if __name__ == "__main__":
+    main()

@@ -33,16 +33,15 @@ from diagnostic_updater import DiagnosticStatusWrapper
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 
-from battery_simulator.battery.battery_state import ReceivedState
-from battery_simulator.battery.robot_log import RobotLog
-from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop
-from battery_simulator.core import diagnostics
-from battery_simulator.core.latest_state import LatestState
-from battery_simulator.core.level_alarm import LevelAlarm
+from battery_simulator.core import topics
+from battery_simulator.core.names import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
+from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.msg import BatterySimState
-from battery_simulator.ros import topics
-from battery_simulator.ros.startup import StartupError, init_node, read_private_settings, signals_held
+from battery_simulator.ros1.log import RobotLog
+from battery_simulator.ros1.messages import ReceivedState
+from battery_simulator.ros1.startup import StartupError, init_node, read_private_settings, signals_held
+from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop
 
 
 def read_settings():
@@ -62,30 +61,22 @@ class BatteryStatePublisher:
     through the shared DiagnosticsLoop. ``on_state`` takes the server's state,
     from the server's topic (battery_state_pub.py) or straight from the server
     (a fleet host); ``acknowledge(update)`` tells the server a service's change
-    is out, on its topic or straight. Lock: ``self._lock`` guards the latest
-    state, its arrival time and what was last published.
+    is out, on its topic or straight. The rules are core/status_rules.py's; ``self._lock`` guards them.
     """
 
     def __init__(self, namespace, node_name, rate, frame_id, stale_timeout, low_percentage, critical_percentage,
                  hysteresis, changes, log=None):
         self.rate = rate
         self._frame_id = frame_id
-        self._diagnostic_name = node_name.lstrip('/') + ': Battery'
+        self._diagnostic_name = node_name.lstrip('/') + DIAGNOSTIC_SUFFIX
         self._changes = changes
         self._log = log or RobotLog()
         self._lock = threading.Lock()
-        self._state = LatestState(stale_timeout, self._log, namespace + topics.STATE_TOPIC,
-                                  'the battery_simulator server')
-        self._published_status = None
-        self._alarms = {
-            'low': LevelAlarm(low_percentage, hysteresis),
-            'critical': LevelAlarm(critical_percentage, hysteresis),
-        }
+        self._rules = StatusRules(stale_timeout, low_percentage, critical_percentage, hysteresis, self._log,
+                                  namespace + topics.STATE_TOPIC, 'the battery_simulator server')
         self._pub = rospy.Publisher(namespace + topics.BATTERY_STATUS, BatteryState, queue_size=10)
-        self._alarm_pubs = {
-            'low': rospy.Publisher(namespace + topics.BATTERY_LOW, Bool, queue_size=1, latch=True),
-            'critical': rospy.Publisher(namespace + topics.BATTERY_CRITICAL, Bool, queue_size=1, latch=True),
-        }
+        self._alarm_pubs = {name: rospy.Publisher(namespace + topic, Bool, queue_size=1, latch=True)
+                            for name, topic in (('low', topics.BATTERY_LOW), ('critical', topics.BATTERY_CRITICAL))}
         for publisher in self._alarm_pubs.values():
             publisher.publish(Bool(data=False))
         self.acknowledge = self._acknowledge_on_topic
@@ -104,51 +95,38 @@ class BatteryStatePublisher:
     def latest_battery(self):
         """The latest BatteryState (None before the first), for a fleet's summary."""
         with self._lock:
-            latest = self._state.latest
-        return None if latest is None or latest.sensor_dropout else latest.message().battery
+            return self._rules.latest_battery()
 
     def on_state(self, state):
         """The server's state after an update (a SimState, or a ReceivedState from its topic)."""
         with self._lock:
-            self._state.take(state)
-            changed = state.power_supply_status != self._published_status
-        for name, alarm in self._alarms.items():
-            if alarm.update(state.percentage):
-                self._log.info('battery %s: %s at %.1f %%', name, alarm.active, 100.0 * state.percentage)
-                self._alarm_pubs[name].publish(Bool(data=alarm.active))
-        if state.publish_now or (changed and self._published_status is not None):
+            reaction = self._rules.take(state, state.publish_now)
+        for name, active in reaction.alarm_changes:
+            self._alarm_pubs[name].publish(Bool(data=active))
+        if reaction.publish_now:
             # a service's change or a status change goes out at once, not at the next tick
             self._changes.request(self, state.update if state.publish_now else 0)
 
     def publish_once(self):
         """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
         with self._lock:
-            latest = self._state.to_publish()
-            if latest is None:
-                self._published_status = None
-                return
             # The server's message is ours alone (a fresh one per update) and publish() serializes it
             # before returning, so it is restamped in place rather than copied on every tick.
-            msg = latest.message().battery
+            msg = self._rules.to_publish()
+            if msg is None:
+                return
             msg.header.stamp = rospy.Time.now()
             msg.header.frame_id = self._frame_id
-            self._published_status = msg.power_supply_status
             self._pub.publish(msg)
 
     def diagnostic_status(self):
         """The "<node>: Battery" diagnostic status (keys as rqt_robot_monitor and dashboards expect)."""
-        status = DiagnosticStatusWrapper(name=self._diagnostic_name)
         with self._lock:
-            latest, stale = self._state.latest, self._state.stale()
-        if latest is None:
-            status.summary(*diagnostics.no_data_yet())
-            status.hardware_id = 'none'
-            return status
-        latest = latest.message()
-        status.hardware_id = latest.battery.serial_number or 'none'
-        status.summary(*diagnostics.battery_level(latest, stale, self._alarms['low'].threshold,
-                                                  self._alarms['critical'].threshold))
-        for key, value in diagnostics.battery_values(latest):
+            report = self._rules.diagnostic()
+        status = DiagnosticStatusWrapper(name=self._diagnostic_name)
+        status.summary(report.level, report.message)
+        status.hardware_id = report.hardware_id
+        for key, value in report.values:
             status.add(key, value)
         return status
 

@@ -30,7 +30,7 @@ import rosgraph
 import rospy
 from rosgraph_msgs.msg import Clock
 
-from battery_simulator.ros.startup import StartupError, checked_param, exit_on_startup_error, init_node, is_number
+from battery_simulator.ros1.startup import StartupError, checked_param, exit_on_startup_error, init_node, is_number
 
 BEHIND_S = 0.1   # further behind its wall schedule than this, the clock gives up catching up
 HOLD_PERIOD_S = 0.1   # while holding: how often the held time is published and the master asked

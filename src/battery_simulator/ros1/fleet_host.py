@@ -34,16 +34,16 @@ import threading
 
 import rospy
 
-from battery_simulator.battery import action_server, state_publisher
-from battery_simulator.battery.action_server import BatterySimServer
-from battery_simulator.battery.robot_log import RobotLog
-from battery_simulator.battery.saved_state import FleetStore
-from battery_simulator.battery.state_publisher import BatteryStatePublisher, publish_at_rate
-from battery_simulator.battery.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
+from battery_simulator.ros1 import battery_sim_server, state_publisher
+from battery_simulator.ros1.action_server import BatterySimServer
+from battery_simulator.ros1.log import RobotLog
+from battery_simulator.ros1.saved_state import FleetStore
+from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate
+from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
 from battery_simulator.core.fleet import FleetError, host_share, robot_params, robot_specs
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.msg import BatteryFleetState
-from battery_simulator.ros.startup import (StartupError, check_one_battery_per_name, checked_param,
+from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, checked_param,
                                            ending_the_node_on_error,
                                            exit_on_startup_error, init_node, is_number, signals_held,
                                            wait_for_rosout)
@@ -57,7 +57,7 @@ FILES_FOR_THE_PROCESS = 64
 
 def read_settings():
     """The host's settings and its robots, checked; raises StartupError (one line naming robot and key)."""
-    server = action_server.read_settings()
+    server = battery_sim_server.read_settings()
     publisher = state_publisher.read_settings()
     staggered = not rospy.has_param('~initial_percentage')
     try:

@@ -21,8 +21,8 @@ import rospy
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 
-from battery_simulator.ros import topics
-from battery_simulator.ros.startup import checked_param, init_node, is_number
+from battery_simulator.core import topics
+from battery_simulator.ros1.startup import checked_param, init_node, is_number
 
 REPEAT_PERIOD_S = 0.5
 

@@ -1,0 +1,49 @@
+"""battery_sim_server.py's main: the action server node (BatterySimServer in sim.launch), one battery
+(ros1/action_server.py), its update loop and its state store. ``read_settings`` is shared with the fleet host.
+
+:ROS Parameters: core/settings.py BATTERY_SETTINGS as private parameters (``~config``, ``~time_scale``,
+  ``~update_rate``, ``~initial_percentage``, ``~charging``, ``~state_file``, ``~max_time_jump``), listed with
+  the topics and services in ros1/action_server.py.
+"""
+import rospy
+
+from battery_simulator.core.parameters import ParameterError, load_yaml
+from battery_simulator.core.settings import BATTERY_SETTINGS
+from battery_simulator.ros1.action_server import BatterySimServer
+from battery_simulator.ros1.saved_state import StateStore
+from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, exit_on_startup_error,
+                                            init_node, read_private_settings, signals_held, wait_for_rosout)
+from battery_simulator.ros1.workers import StatusTimer, UpdateLoop
+
+
+def read_settings():
+    """All start-up parameters (core/settings.py BATTERY_SETTINGS), checked; raises StartupError."""
+    settings = read_private_settings(BATTERY_SETTINGS)
+    try:
+        settings['params'] = load_yaml(settings['config'])
+    except ParameterError as error:
+        raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), settings['config'],
+                                                                 error)) from None
+    settings['params_path'] = settings.pop('config')
+    return settings
+
+
+def main():
+    with signals_held():
+        settings = init_node('BatterySimServer', read_settings)
+        try:
+            check_one_battery_per_name([rospy.get_namespace()])
+        except StartupError as error:
+            exit_on_startup_error(error)
+        settings.pop('params_path')
+        loop = UpdateLoop(settings.pop('update_rate'))
+        store = StateStore(rospy.resolve_name('~saved_state'), settings.pop('state_file'))
+        server = BatterySimServer(rospy.get_namespace(), rospy.get_name(), store=store, loop=loop,
+                                  status_timer=StatusTimer(), **settings)
+        rospy.on_shutdown(loop.stop)   # client hooks run before rospy closes the topics
+        loop.start()     # first: dynamic_reconfigure's first callback waits for an update
+        server.start()
+        wait_for_rosout()
+        server.report_ready()
+    rospy.spin()
+    loop.stop()

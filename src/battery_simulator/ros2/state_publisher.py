@@ -1,0 +1,63 @@
+"""battery_state_pub's role for one battery on ROS 2: ``battery_status``, ``battery_low`` /
+``battery_critical`` and its "Battery" diagnostic status (ros1/state_publisher.py's twin).
+
+It runs no model: ``on_state(state, publish_now)`` takes each update's state (a
+SimState of an in-process battery, or a ReceivedState of a BatterySimState from
+another process); ``publish_once()`` is called at ``rate`` Hz. The rules (stale,
+alarms, send now, diagnostics) are core/status_rules.py's.
+"""
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+
+from battery_simulator.core import topics
+from battery_simulator.core.names import DIAGNOSTIC_SUFFIX
+from battery_simulator.core.status_rules import StatusRules
+from battery_simulator.ros2.qos import LATCHED_QOS, STATUS_QOS
+
+
+class BatteryStatePublisher:
+    """battery_state_pub's publishers for one battery whose names live under ``namespace`` of ``node``."""
+
+    def __init__(self, node, namespace, diagnostic_name, rate, frame_id, stale_timeout, low_percentage,
+                 critical_percentage, hysteresis, log):
+        self.rate = rate
+        self._node = node
+        self._frame_id = frame_id
+        self._diagnostic_name = diagnostic_name + DIAGNOSTIC_SUFFIX
+        self._rules = StatusRules(stale_timeout, low_percentage, critical_percentage, hysteresis, log,
+                                  'the battery', 'the battery')
+        self._pub = node.create_publisher(BatteryState, namespace + topics.BATTERY_STATUS, STATUS_QOS)
+        self._alarm_pubs = {name: node.create_publisher(Bool, namespace + topic, LATCHED_QOS)
+                            for name, topic in (('low', topics.BATTERY_LOW), ('critical', topics.BATTERY_CRITICAL))}
+        for publisher in self._alarm_pubs.values():
+            publisher.publish(Bool(data=False))
+
+    def on_state(self, state, publish_now=False):
+        """The battery's state after an update; a service's change (``publish_now``) or a status change
+        goes out at once."""
+        reaction = self._rules.take(state, publish_now)
+        for name, active in reaction.alarm_changes:
+            self._alarm_pubs[name].publish(Bool(data=active))
+        if reaction.publish_now:
+            self.publish_once()
+
+    def latest_battery(self):
+        """The latest BatteryState (None before the first, or while a sensor dropout holds it back)."""
+        return self._rules.latest_battery()
+
+    def publish_once(self):
+        """Publish the latest state, freshly stamped (or nothing: no state yet, or a sensor dropout)."""
+        msg = self._rules.to_publish()
+        if msg is None:
+            return
+        msg.header.stamp = self._node.get_clock().now().to_msg()
+        msg.header.frame_id = self._frame_id
+        self._pub.publish(msg)
+
+    def diagnostic_status(self):
+        """The "<node>: Battery" status."""
+        report = self._rules.diagnostic()
+        return DiagnosticStatus(name=self._diagnostic_name, level=bytes([report.level]), message=report.message,
+                                hardware_id=report.hardware_id,
+                                values=[KeyValue(key=key, value=value) for key, value in report.values])
