@@ -1,14 +1,15 @@
-"""The demo robot on a coarse ROS clock (no master): sim_clock's tick arithmetic, fake_base's
-integration over the ROS time that passed, patrol_and_dock's step-limited commands."""
+"""The demo robot on a coarse ROS clock (no ROS): sim_clock's tick arithmetic (robot/clock.py), fake_base's
+integration over the ROS time that passed (robot/base.py), patrol_and_dock's step-limited commands
+(robot/patrol.py); and patrol_and_dock's fresh-pose rule in its ROS 1 adapter (needs the devel space)."""
 import math
 
 import pytest
 
 from battery_simulator.core.time_base import TimeBase
 
-sim_clock = pytest.importorskip('battery_simulator.ros1.sim_clock', reason='needs the devel space')
-fake_base = pytest.importorskip('battery_simulator.ros1.fake_base')
-patrol = pytest.importorskip('battery_simulator.ros1.patrol_and_dock')
+from battery_simulator.robot import base as fake_base
+from battery_simulator.robot import clock as sim_clock
+from battery_simulator.robot import patrol
 
 
 def test_ros_time_is_counted_in_ticks_so_it_never_drifts():
@@ -50,9 +51,10 @@ def test_the_clock_holds_until_every_named_topic_has_a_publisher():
 
 
 def _behaviour_with_pose(pose_stamp_s, commanded_at_s):
-    """A PatrolAndDock without a master: just the inputs that _fresh_inputs reads."""
+    """A ROS 1 PatrolAndDock without a master: just the inputs that _fresh_inputs reads."""
     import threading
-    behaviour = patrol.PatrolAndDock.__new__(patrol.PatrolAndDock)
+    ros1_patrol = pytest.importorskip('battery_simulator.ros1.patrol_and_dock', reason='needs the devel space')
+    behaviour = ros1_patrol.PatrolAndDock.__new__(ros1_patrol.PatrolAndDock)
     behaviour._lock = threading.Lock()
     behaviour._pose_arrived = threading.Condition(behaviour._lock)
     behaviour._pose, behaviour._low, behaviour._contact = (1.0, 2.0, 0.0), True, False
@@ -62,7 +64,8 @@ def _behaviour_with_pose(pose_stamp_s, commanded_at_s):
 
 def test_a_pose_the_last_command_has_not_moved_is_not_steered_again(monkeypatch):
     # odometry queued seconds late on a starved machine: steering it again turned the robot in circles
-    monkeypatch.setattr(patrol, 'FRESH_POSE_WAIT_S', 0.01)
+    ros1_patrol = pytest.importorskip('battery_simulator.ros1.patrol_and_dock', reason='needs the devel space')
+    monkeypatch.setattr(ros1_patrol, 'FRESH_POSE_WAIT_S', 0.01)
     assert _behaviour_with_pose(10.0, 10.0)._fresh_inputs() == (None, True, False)
     assert _behaviour_with_pose(9.4, 10.0)._fresh_inputs() == (None, True, False)
     assert _behaviour_with_pose(10.6, 10.0)._fresh_inputs() == ((1.0, 2.0, 0.0), True, False)
@@ -70,17 +73,15 @@ def test_a_pose_the_last_command_has_not_moved_is_not_steered_again(monkeypatch)
 
 @pytest.mark.parametrize('step_s', [0.05, 0.24, 0.96])
 def test_undocking_ends_although_each_step_drives_half_the_way_left(step_s):
-    behaviour = patrol.PatrolAndDock.__new__(patrol.PatrolAndDock)
-    behaviour._phase, behaviour._undock_from, behaviour._undock_distance = patrol.UNDOCK, (0.0, 0.0), 0.6
-    behaviour._speed, behaviour._step_s = 0.3, step_s
     entered = []
-    behaviour._enter = entered.append
+    behaviour = patrol.Patrol(patrol.DEFAULT_WAYPOINTS, 0.0, 0.0, 0.3, 0.6, entered.append, lambda: None)
+    behaviour.phase, behaviour.undock_from = patrol.UNDOCK, (0.0, 0.0)
     pose = (0.0, 0.0, 0.0)
     for _ in range(200):
-        twist = behaviour._control(pose, False, False)
+        linear, angular = behaviour.control(pose, False, False, step_s)
         if entered:
             break
-        pose, _ = fake_base.advance(pose, (twist.linear.x, twist.angular.z, 0.0), 0.0, step_s, 100.0)
+        pose, _ = fake_base.advance(pose, (linear, angular, 0.0), 0.0, step_s, 100.0)
     assert entered == [patrol.PATROL]
     assert 0.6 - patrol.ARRIVED_M <= math.hypot(*pose[:2]) <= 0.6
 

@@ -6,63 +6,56 @@ load off) it publishes one zero Twist and drops every command until the
 battery is no longer empty, as a real robot stops when its battery dies.
 A command with a NaN or infinite value is never relayed: a zero Twist goes
 out instead (once, until a finite command comes), with a log line.
+The rule is robot/cmd_vel_gate.py's; it forwards the type it receives
+(geometry_msgs/Twist or TwistStamped), and its stops are of that type.
 
 :Subscribes:
-  - ``cmd_vel_in`` (geometry_msgs/Twist): the controller's commands
+  - ``cmd_vel_in`` (geometry_msgs/Twist or TwistStamped): the controller's commands
   - ``battery_simulator/state`` (battery_simulator/BatterySimState): from battery_sim_server.py
 :Publishes:
-  - ``cmd_vel_out`` (geometry_msgs/Twist)
+  - ``cmd_vel_out`` (geometry_msgs/Twist, or TwistStamped once such commands come)
 """
-import math
 import threading
 
 import rospy
-from geometry_msgs.msg import Twist
 
 from battery_simulator.msg import BatterySimState
 from battery_simulator.core import topics
+from battery_simulator.robot import cmd_vel_gate as rule
+from battery_simulator.ros1.twist import TwistPublisher, TwistSubscriber
 
 
 class CmdVelGate:
     def __init__(self):
-        self._lock = threading.Lock()   # guards _empty, _bad_command and the stops published
-        self._empty = False
-        self._bad_command = False       # the last command was non-finite (a zero Twist was sent for it)
-        self._pub = rospy.Publisher('cmd_vel_out', Twist, queue_size=10)
+        self._lock = threading.Lock()   # guards _gate and the commands and stops published
+        self._gate = rule.CmdVelGate()
+        self._pub = TwistPublisher('cmd_vel_out', queue_size=10)
         self._state_sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
-        self._cmd_sub = rospy.Subscriber('cmd_vel_in', Twist, self._on_cmd_vel, queue_size=10)
+        self._cmd_sub = TwistSubscriber('cmd_vel_in', self._on_cmd_vel, queue_size=10)
 
     def _on_state(self, state):
-        empty = state.charging_state == 'Empty'
         with self._lock:
-            changed, self._empty = empty != self._empty, empty
-            if changed and empty:
-                self._pub.publish(Twist())   # the motors stop
-        if changed:
-            if empty:
-                rospy.logwarn('battery empty (%s): motion stopped, commands dropped', state.cut_off)
-            else:
-                rospy.loginfo('battery no longer empty: relaying commands again')
+            change = self._gate.on_state(state.charging_state)
+            if change == 'empty':
+                self._pub.publish_stop()   # the motors stop
+        if change == 'empty':
+            rospy.logwarn('battery empty (%s): motion stopped, commands dropped', state.cut_off)
+        elif change == 'not empty':
+            rospy.loginfo('battery no longer empty: relaying commands again')
 
-    def _on_cmd_vel(self, twist):
-        finite = all(math.isfinite(value) for value in (twist.linear.x, twist.linear.y, twist.linear.z,
-                                                        twist.angular.x, twist.angular.y, twist.angular.z))
+    def _on_cmd_vel(self, twist, msg):
+        values = rule.twist_values(twist)
         with self._lock:
-            if self._empty:
-                return
-            if finite:
-                self._bad_command = False
-                self._pub.publish(twist)
-                return
-            stop_now, self._bad_command = not self._bad_command, True
-            if stop_now:   # once per run of bad commands: the motors stop rather than get NaN
-                self._pub.publish(Twist())
-        rospy.logwarn_throttle(10.0, 'a cmd_vel_in with a non-finite value (%s): sent a zero Twist instead',
-                               ' '.join('%r' % v for v in (twist.linear.x, twist.linear.y, twist.linear.z,
-                                                           twist.angular.x, twist.angular.y, twist.angular.z)))
+            action = self._gate.on_command(values)
+            if action == rule.FORWARD:
+                self._pub.publish(msg)
+            elif action == rule.STOP:   # once per run of bad commands: the motors stop rather than get NaN
+                self._pub.publish_stop(like=msg)
+        if action in (rule.STOP, rule.BAD):
+            rospy.logwarn_throttle(10.0, rule.bad_command_line(values))
 
 
 def main():
-    rospy.init_node('battery_cmd_vel_gate', disable_signals=True)   # node_signals.py's handlers (robot/__init__)
+    rospy.init_node('battery_cmd_vel_gate', disable_signals=True)   # node_signals.py's handlers (ros1/__init__)
     CmdVelGate()
     rospy.spin()

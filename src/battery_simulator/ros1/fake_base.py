@@ -4,7 +4,8 @@ It integrates the latest ``cmd_vel`` (held for ``~cmd_vel_timeout`` s, then
 zero) into a pose, and publishes it as ``odom`` and as the tf odom ->
 base_footprint, at ``~rate`` Hz. Everything runs on ROS time: under
 ``/use_sim_time`` with a coarse clock (0.24 s a tick at sim_clock speed 240) it
-integrates over the ROS time that actually passed, exactly for a held Twist.
+integrates over the ROS time that actually passed, exactly for a held Twist
+(the rule: robot/base.py). It takes geometry_msgs/Twist or TwistStamped on ``cmd_vel``.
 
 :ROS Parameters:
   - ``~rate`` (float, Hz, 0 < r <= 1000): integration and publication rate (default 20)
@@ -13,115 +14,65 @@ integrates over the ROS time that actually passed, exactly for a held Twist.
   - ``~odom_frame``, ``~base_frame`` (str): frame ids (default odom, base_footprint)
 
 :Subscribes:
-  - ``cmd_vel`` (geometry_msgs/Twist)
+  - ``cmd_vel`` (geometry_msgs/Twist or TwistStamped: the type its publisher has)
 :Publishes:
   - ``odom`` (nav_msgs/Odometry), tf ``odom`` -> ``base_footprint``
 """
-import collections
-import math
 import threading
 
 import rospy
 import tf2_ros
-from geometry_msgs.msg import Quaternion, TransformStamped, Twist
+from geometry_msgs.msg import Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
 
 from battery_simulator.core import topics
-from battery_simulator.ros1.startup import checked_param, init_node, is_number
+from battery_simulator.robot import base
+from battery_simulator.ros1.startup import init_node, read_private_settings
+from battery_simulator.ros1.twist import TwistSubscriber
 
 
 def read_settings():
-    return dict(
-        rate=checked_param('~rate', 20.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz'),
-        x=checked_param('~x', 0.0, is_number, 'a number (m)'),
-        y=checked_param('~y', 0.0, is_number, 'a number (m)'),
-        yaw=checked_param('~yaw', 0.0, is_number, 'a number (rad)'),
-        cmd_vel_timeout=checked_param('~cmd_vel_timeout', 0.5, lambda v: is_number(v) and v > 0, 'a number > 0 s'),
-        odom_frame=checked_param('~odom_frame', 'odom', lambda v: isinstance(v, str) and v, 'a frame id'),
-        base_frame=checked_param('~base_frame', 'base_footprint', lambda v: isinstance(v, str) and v, 'a frame id'),
-    )
-
-
-def integrate(x, y, yaw, linear, angular, dt_s):
-    """The pose after driving at (linear, angular) for dt_s (exact arc for a unicycle)."""
-    if abs(angular) < 1e-9:
-        return x + linear * dt_s * math.cos(yaw), y + linear * dt_s * math.sin(yaw), yaw
-    new_yaw = yaw + angular * dt_s
-    radius = linear / angular
-    return (x + radius * (math.sin(new_yaw) - math.sin(yaw)),
-            y - radius * (math.cos(new_yaw) - math.cos(yaw)),
-            math.atan2(math.sin(new_yaw), math.cos(new_yaw)))
-
-
-def advance(pose, command, last_s, now_s, timeout_s):
-    """(pose, moving) after the ROS time from ``last_s`` to ``now_s``: ``command`` = (linear, angular,
-    received_s) drives from ``last_s`` until it times out (exact: one arc), then the base stands."""
-    linear, angular, received_s = command
-    moving_s = min(now_s, received_s + timeout_s) - last_s
-    if moving_s <= 0.0:
-        return pose, False
-    return integrate(*pose, linear, angular, moving_s), now_s - received_s <= timeout_s
+    return read_private_settings(base.SETTINGS)
 
 
 def yaw_quaternion(yaw):
-    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
+    x, y, z, w = base.yaw_quaternion(yaw)
+    return Quaternion(x=x, y=y, z=z, w=w)
 
 
 class FakeBase:
     def __init__(self, rate, x, y, yaw, cmd_vel_timeout, odom_frame, base_frame):
         self._rate_hz = rate
-        self._pose = (x, y, yaw)
-        self._timeout_s = cmd_vel_timeout
         self._frames = (odom_frame, base_frame)
-        self._lock = threading.Lock()   # guards _command
-        self._steps = collections.deque(maxlen=20)   # the last steps of ROS time seen (s): the clock's tick
-        self._command = (0.0, 0.0, -math.inf)   # (linear, angular, ROS time received)
+        self._lock = threading.Lock()   # guards _base
+        self._base = base.Base(x, y, yaw, cmd_vel_timeout)
         self._odom_pub = rospy.Publisher(topics.ODOM, Odometry, queue_size=10)
         self._tf = tf2_ros.TransformBroadcaster()
-        self._sub = rospy.Subscriber(topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1)
+        self._sub = TwistSubscriber(topics.CMD_VEL, self._on_cmd_vel)
 
     def _on_cmd_vel(self, twist):
         linear, angular = twist.linear.x, twist.angular.z
-        if not (math.isfinite(linear) and math.isfinite(angular)):
-            rospy.logerr_throttle(10.0, 'ignoring a non-finite cmd_vel (%r, %r)', linear, angular)
-            return
         with self._lock:
-            self._command = (linear, angular, rospy.get_time())
+            taken = self._base.command(linear, angular, rospy.get_time())
+        if not taken:
+            rospy.logerr_throttle(10.0, 'ignoring a non-finite cmd_vel (%r, %r)', linear, angular)
 
     def spin(self):
         rate = rospy.Rate(self._rate_hz, reset=True)   # ROS time; reset: a /clock jump back restarts it
-        last = rospy.get_time()
         while not rospy.is_shutdown():
-            now = rospy.get_time()
             with self._lock:
-                command = self._command
-            if now < last or last == 0.0:   # a clock jump back, or no /clock yet: restart from here
-                last = now
-            elif now == last:   # ROS time has not moved (rospy.Rate may wake twice on a coarse tick)
-                self._sleep(rate)
-                continue
-            if now > last:
-                self._steps.append(now - last)
-            # a command holds for its timeout, or one and a half ticks of a coarse clock (the shortest
-            # recent step), never for a stall's whole length
-            timeout_s = max(self._timeout_s, 1.5 * min(self._steps, default=0.0))
-            self._pose, moving = advance(self._pose, command, last, now, timeout_s)
-            last = now
-            self._publish(now, *(command[:2] if moving else (0.0, 0.0)))
-            if not self._sleep(rate):
+                stepped = self._base.step(rospy.get_time())
+            if stepped is not None:   # None: ROS time has not moved (rospy.Rate may wake twice on a coarse tick)
+                pose, (linear, angular) = stepped
+                self._publish(self._base.time_s, pose, linear, angular)
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
                 break
 
-    @staticmethod
-    def _sleep(rate):
-        try:
-            rate.sleep()
-            return True
-        except rospy.ROSInterruptException:
-            return False
-
-    def _publish(self, now_s, linear, angular):
+    def _publish(self, now_s, pose, linear, angular):
         """odom and tf of the pose at ROS time ``now_s`` (the time integrated to, not a later tick's)."""
-        x, y, yaw = self._pose
+        x, y, yaw = pose
         stamp = rospy.Time.from_sec(now_s)
         odom = Odometry()
         odom.header.stamp, odom.header.frame_id = stamp, self._frames[0]

@@ -6,7 +6,8 @@ does), each tick advancing ROS time by ``~speed / ~tick_hz`` (0.24 s at speed
 own) runs faster together: a sped-up demo spends on each trip the energy the
 trip takes. ROS time is counted in ticks from ``~start``, so it never drifts
 against itself; when the machine cannot keep up, the clock runs slower than
-asked (as Gazebo's real-time factor drops) and says so.
+asked (as Gazebo's real-time factor drops) and says so (the tick policy:
+robot/clock.py).
 
 With ``~wait_for`` the clock holds ROS time at ``~start`` until every topic
 named there has a publisher (as Gazebo starts paused): the nodes of a sped-up
@@ -30,42 +31,13 @@ import rosgraph
 import rospy
 from rosgraph_msgs.msg import Clock
 
-from battery_simulator.ros1.startup import StartupError, checked_param, exit_on_startup_error, init_node, is_number
-
-BEHIND_S = 0.1   # further behind its wall schedule than this, the clock gives up catching up
-HOLD_PERIOD_S = 0.1   # while holding: how often the held time is published and the master asked
+from battery_simulator.robot import clock as rule
+from battery_simulator.robot.clock import missing_publishers
+from battery_simulator.ros1.startup import StartupError, exit_on_startup_error, init_node, read_private_settings
 
 
 def read_settings():
-    return dict(
-        speed=checked_param('~speed', 1.0, lambda v: is_number(v) and 0 < v <= 10000, 'a number in (0, 10000]'),
-        start=checked_param('~start', 0.0, lambda v: is_number(v) and 0 <= v <= MAX_ROS_TIME_S,
-                            'a number in [0, %d] s (a ROS time holds at most %d s)' % (MAX_ROS_TIME_S,
-                                                                                      MAX_ROS_TIME_S)),
-        tick_hz=checked_param('~tick_hz', 1000.0, lambda v: is_number(v) and 0 < v <= 10000,
-                              'a number in (0, 10000] Hz'),
-        wait_for=checked_param('~wait_for', [], _topic_names, 'a list of topic names'),
-        wait_timeout=checked_param('~wait_timeout', 60.0, lambda v: is_number(v) and v > 0, 'a number > 0 s'),
-    )
-
-
-#: the largest whole second a ROS time holds (uint32 seconds)
-MAX_ROS_TIME_S = 4294967295
-
-
-def _topic_names(value):
-    return isinstance(value, list) and all(isinstance(name, str) and name for name in value)
-
-
-def missing_publishers(wanted, published):
-    """The topics of ``wanted`` (resolved names) that no node publishes yet, given the master's list."""
-    have = {topic for topic, _ in published}
-    return [topic for topic in wanted if topic not in have]
-
-
-def tick_time(start, speed, tick_hz, ticks):
-    """ROS time (s) after ``ticks`` ticks: counted, not summed, so it never drifts."""
-    return start + ticks * speed / tick_hz
+    return read_private_settings(rule.SETTINGS)
 
 
 class SimClock:
@@ -92,31 +64,24 @@ class SimClock:
                               ', '.join(missing), self._wait_timeout)
                 return
             if missing:
-                time.sleep(HOLD_PERIOD_S)
+                time.sleep(rule.HOLD_PERIOD_S)
 
     def spin(self):
         if self._wait_for:
             self._hold()
-        rospy.loginfo('sim_clock: ROS time x%g from %g s, %g ticks a second of %g ms', self._speed, self._start,
-                      self._tick_hz, 1000.0 * self._speed / self._tick_hz)
-        period_s = 1.0 / self._tick_hz
-        ticks, next_tick = 0, time.monotonic()
+        schedule = rule.TickSchedule(self._speed, self._start, self._tick_hz, time.monotonic())
+        rospy.loginfo(schedule.start_line())
         while not rospy.is_shutdown():
-            ticks += 1
-            now = tick_time(self._start, self._speed, self._tick_hz, ticks)
-            if now >= MAX_ROS_TIME_S:   # after 4.3e5 s (5 days) of wall time at the fastest speed from 0
-                exit_on_startup_error(StartupError(
-                    'sim_clock: ROS time reached %d s, the largest a ROS time holds: the clock stops (restart it '
-                    'with a smaller ~start)' % MAX_ROS_TIME_S), stop_launch=False)
+            try:
+                now = schedule.tick()
+            except rule.ClockTooFar:
+                exit_on_startup_error(StartupError(rule.too_far_line('~start')), stop_launch=False)
             self._pub.publish(Clock(clock=rospy.Time.from_sec(now)))
-            next_tick += period_s
-            delay_s = next_tick - time.monotonic()
+            delay_s, behind = schedule.delay(time.monotonic())
             if delay_s > 0.0:
                 time.sleep(delay_s)   # wall time: this node makes ROS time
-            elif delay_s < -BEHIND_S:
-                next_tick = time.monotonic()
-                rospy.logwarn_throttle(10.0, 'sim_clock cannot keep up %g ticks a second: ROS time runs slower '
-                                       'than x%g', self._tick_hz, self._speed)
+            elif behind:
+                rospy.logwarn_throttle(10.0, schedule.behind_line())
 
 
 def main():

@@ -1,0 +1,87 @@
+"""sim_clock's tick policy, without ROS: ROS time counted in ticks from ``start`` (never drifting), a tick
+every 1 / ``tick_hz`` wall seconds, catching up when late by less than BEHIND_S and giving up (the clock
+runs slower than asked, as Gazebo's real-time factor drops) beyond it; and the hold until named topics
+have publishers. The front ends: ros1/sim_clock.py, ros2/sim_clock.py (and battery_demo's clock)."""
+from battery_simulator.core.parameters import is_number
+from battery_simulator.core.settings import Setting
+
+BEHIND_S = 0.1   # further behind its wall schedule than this, the clock gives up catching up
+HOLD_PERIOD_S = 0.1   # while holding: how often the held time is published and the graph asked
+#: the largest whole second a ROS time holds (uint32 seconds)
+MAX_ROS_TIME_S = 4294967295
+
+
+def _topic_names(value):
+    return isinstance(value, (list, tuple)) and all(isinstance(name, str) and name for name in value)
+
+
+SETTINGS = (
+    Setting('speed', 1.0, lambda v: is_number(v) and 0 < v <= 10000, 'a number in (0, 10000]',
+            'ROS seconds per wall second', False),
+    Setting('start', 0.0, lambda v: is_number(v) and 0 <= v <= MAX_ROS_TIME_S,
+            'a number in [0, %d] s (a ROS time holds at most %d s)' % (MAX_ROS_TIME_S, MAX_ROS_TIME_S),
+            'ROS time at the first tick, s', False),
+    Setting('tick_hz', 1000.0, lambda v: is_number(v) and 0 < v <= 10000, 'a number in (0, 10000] Hz',
+            'ticks per wall second', False),
+    Setting('wait_for', [], _topic_names, 'a list of topic names',
+            'hold ROS time at start until each of these topics has a publisher', False),
+    Setting('wait_timeout', 60.0, lambda v: is_number(v) and v > 0, 'a number > 0 s',
+            'start anyway after this long (wall s), with a warning', False),
+)
+
+
+def tick_time(start, speed, tick_hz, ticks):
+    """ROS time (s) after ``ticks`` ticks: counted, not summed, so it never drifts."""
+    return start + ticks * speed / tick_hz
+
+
+def missing_publishers(wanted, published):
+    """The topics of ``wanted`` (resolved names) that no node publishes yet, given [(topic, type)] published."""
+    have = {topic for topic, _ in published}
+    return [topic for topic in wanted if topic not in have]
+
+
+class ClockTooFar(Exception):
+    """ROS time reached MAX_ROS_TIME_S: the clock stops."""
+
+
+def too_far_line(start_name):
+    return ('sim_clock: ROS time reached %d s, the largest a ROS time holds: the clock stops (restart it '
+            'with a smaller %s)' % (MAX_ROS_TIME_S, start_name))
+
+
+class TickSchedule:
+    """The ticks of a clock: ``tick()`` is the next ROS time to publish, then ``delay(wall_now)`` the wall
+    seconds to sleep until the tick after, and whether the clock gave up catching up on it."""
+
+    def __init__(self, speed, start, tick_hz, wall_now):
+        self.speed, self.start, self.tick_hz = speed, start, tick_hz
+        self.period_s = 1.0 / tick_hz
+        self.ticks = 0
+        self._next_wall = wall_now
+
+    def tick(self):
+        """The ROS time of the next tick; ClockTooFar at MAX_ROS_TIME_S (after 4.3e5 s, 5 days, of wall time
+        at the fastest speed from 0)."""
+        self.ticks += 1
+        now = tick_time(self.start, self.speed, self.tick_hz, self.ticks)
+        if now >= MAX_ROS_TIME_S:
+            raise ClockTooFar()
+        return now
+
+    def delay(self, wall_now):
+        """(wall seconds to sleep before the next tick, behind): behind more than BEHIND_S, the schedule
+        restarts from now (ROS time runs slower than asked) and behind is True."""
+        self._next_wall += self.period_s
+        delay_s = self._next_wall - wall_now
+        if delay_s < -BEHIND_S:
+            self._next_wall = wall_now
+            return 0.0, True
+        return max(0.0, delay_s), False
+
+    def behind_line(self):
+        return 'sim_clock cannot keep up %g ticks a second: ROS time runs slower than x%g' % (self.tick_hz, self.speed)
+
+    def start_line(self):
+        return 'sim_clock: ROS time x%g from %g s, %g ticks a second of %g ms' % (
+            self.speed, self.start, self.tick_hz, 1000.0 * self.speed / self.tick_hz)

@@ -1,0 +1,136 @@
+"""The demo behaviour's rule (patrol_and_dock), without ROS: patrol a loop of waypoints, drive to the dock
+when the battery is low, charge on contact, back off the dock when full, patrol again.
+
+``Patrol.control`` is one control step: the pose, the inputs and the ROS time a command holds in, the
+(linear, angular) command out; no command drives or turns past its goal within one step. The front ends
+(ros1/patrol_and_dock.py, ros2/patrol_and_dock.py) give it the inputs, send the charge goal it asks for,
+tell it how the goal ended, log and publish each phase.
+"""
+import math
+
+from battery_simulator.core.parameters import is_number
+from battery_simulator.core.settings import Setting
+
+PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
+PHASES = (PATROL, GO_TO_DOCK, CHARGING, UNDOCK)
+CONTROL_RATE_HZ = 20.0
+ARRIVED_M = 0.08          # a waypoint counts as reached within this distance (or half a step's drive)
+DOCKED_M = 0.15           # stop this close to the dock: well inside battery_dock_contact's radius (0.3 m)
+MAX_TURN_RADPS = 1.5
+DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
+#: how a charge goal ended, as the front end tells it
+GOAL_SUCCEEDED, GOAL_FAILED = 'succeeded', 'failed'
+
+
+def waypoint_pairs(value):
+    """[(x, y)] of a list of [x, y] points, or of a flat list x1, y1, x2, y2 ... (ROS 2 parameters hold no
+    list of lists); None when it is neither (or empty)."""
+    if not isinstance(value, (list, tuple)) or not value:
+        return None
+    if all(isinstance(p, (list, tuple)) and len(p) == 2 and all(is_number(c) for c in p) for p in value):
+        return [(float(p[0]), float(p[1])) for p in value]
+    if len(value) % 2 == 0 and all(is_number(c) for c in value):
+        return [(float(value[i]), float(value[i + 1])) for i in range(0, len(value), 2)]
+    return None
+
+
+SETTINGS = (
+    Setting('waypoints', DEFAULT_WAYPOINTS, lambda v: waypoint_pairs(v) is not None,
+            'a list of [x, y] points (m)', 'the patrol loop, m', False),
+    Setting('dock_x', 0.0, is_number, 'a number (m)', 'the dock, x (m), as battery_dock_contact has it', False),
+    Setting('dock_y', 0.0, is_number, 'a number (m)', 'the dock, y (m)', False),
+    Setting('speed', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m/s', 'cruising speed, m/s', False),
+    Setting('undock_distance', 0.6, lambda v: is_number(v) and v > 0, 'a number > 0 m',
+            'how far to back off the dock, m', False),
+)
+
+
+def drive_to(x, y, yaw, goal_x, goal_y, speed, step_s=1.0 / CONTROL_RATE_HZ):
+    """(linear, angular) to drive a unicycle at (x, y, yaw) to the goal: turn first, then go, slowing near it.
+
+    ``step_s`` is the ROS time a command holds before the next (0.24 s under sim_clock at speed 240): no
+    command drives or turns more than half the way left within one step, so it never overshoots, even
+    acting on a pose one step old (the base and this node take turns on each tick).
+    """
+    distance = math.hypot(goal_x - x, goal_y - y)
+    heading_error = math.atan2(goal_y - y, goal_x - x) - yaw
+    heading_error = math.atan2(math.sin(heading_error), math.cos(heading_error))
+    turn_limit = min(MAX_TURN_RADPS, 0.5 * abs(heading_error) / step_s)
+    angular = max(-turn_limit, min(turn_limit, 2.5 * heading_error))
+    linear = 0.0 if abs(heading_error) > 0.5 else \
+        min(speed, 1.2 * distance, 0.5 * distance / step_s) * math.cos(heading_error)
+    return linear, angular
+
+
+def control_step(last_s, now_s):
+    """The ROS time a command sent now holds (s), or None when no step is due: ROS time has not moved (a
+    coarse clock may wake the loop twice a tick). A jump back of more than a second restarts it."""
+    if now_s > last_s:
+        return max(1.0 / CONTROL_RATE_HZ, now_s - last_s)
+    if now_s < last_s - 1.0:
+        return 1.0 / CONTROL_RATE_HZ
+    return None
+
+
+def yaw_of(z, w):
+    """Yaw of a quaternion that rotates about z only."""
+    return 2.0 * math.atan2(z, w)
+
+
+class Patrol:
+    """The phase machine. ``on_phase(phase)`` logs and publishes a phase; ``send_charge_goal()`` sends the
+    charge goal (its end comes back as control's ``goal_outcome``). Not thread-safe."""
+
+    def __init__(self, waypoints, dock_x, dock_y, speed, undock_distance, on_phase, send_charge_goal):
+        self.waypoints = waypoint_pairs(waypoints)
+        self.dock = (dock_x, dock_y)
+        self.speed = speed
+        self.undock_distance = undock_distance
+        self._on_phase = on_phase
+        self._send_charge_goal = send_charge_goal
+        self.phase = None
+        self.next_waypoint = 0
+        self.undock_from = None
+
+    def enter(self, phase):
+        self.phase = phase
+        self._on_phase(phase)
+
+    def start(self):
+        self.enter(PATROL)
+
+    def control(self, pose, low, contact, step_s, goal_outcome=None):
+        """One control step: (linear, angular). ``goal_outcome``: None while the charge goal runs (or there is
+        none), GOAL_SUCCEEDED when it ended "Full", GOAL_FAILED when it ended otherwise (sent again)."""
+        x, y, yaw = pose
+        if self.phase == PATROL:
+            if low:
+                self.enter(GO_TO_DOCK)
+                return 0.0, 0.0
+            goal = self.waypoints[self.next_waypoint]
+            if math.hypot(goal[0] - x, goal[1] - y) < max(ARRIVED_M, 0.5 * self.speed * step_s):
+                self.next_waypoint = (self.next_waypoint + 1) % len(self.waypoints)
+            return drive_to(x, y, yaw, goal[0], goal[1], self.speed, step_s)
+        if self.phase == GO_TO_DOCK:
+            if contact:
+                self._send_charge_goal()
+                self.enter(CHARGING)
+                return 0.0, 0.0
+            if math.hypot(self.dock[0] - x, self.dock[1] - y) < DOCKED_M:
+                return 0.0, 0.0   # on the dock: stand still until the contact closes
+            return drive_to(x, y, yaw, self.dock[0], self.dock[1], self.speed, step_s)
+        if self.phase == CHARGING:
+            if goal_outcome == GOAL_SUCCEEDED:
+                self.undock_from = (x, y)
+                self.enter(UNDOCK)
+            elif goal_outcome == GOAL_FAILED:
+                self._send_charge_goal()
+            return 0.0, 0.0
+        # UNDOCK: back straight off the dock, then patrol from the first waypoint (within ARRIVED_M of
+        # the distance: halving what is left each step would otherwise never get there)
+        left_m = self.undock_distance - math.hypot(x - self.undock_from[0], y - self.undock_from[1])
+        if left_m < ARRIVED_M:
+            self.next_waypoint = 0
+            self.enter(PATROL)
+            return 0.0, 0.0
+        return -min(0.5 * self.speed, 0.5 * left_m / step_s), 0.0

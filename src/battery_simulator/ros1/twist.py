@@ -1,0 +1,60 @@
+"""Velocity commands of either type on ROS 1: geometry_msgs/Twist or TwistStamped (Nav2's default on ROS 2,
+and what a bridged or newer controller sends), told apart by the publisher's connection header."""
+import rospy
+from geometry_msgs.msg import Twist, TwistStamped
+
+TYPES = {'geometry_msgs/Twist': Twist, 'geometry_msgs/TwistStamped': TwistStamped}
+
+
+def twist_of(msg):
+    """The Twist inside a Twist or TwistStamped."""
+    return msg.twist if isinstance(msg, TwistStamped) else msg
+
+
+class TwistSubscriber:
+    """Subscribes ``topic`` with whatever of the two types its publishers have; ``callback(twist, msg)``."""
+
+    def __init__(self, topic, callback, queue_size=1):
+        self._callback = callback
+        self._sub = rospy.Subscriber(topic, rospy.AnyMsg, self._on_message, queue_size=queue_size)
+
+    def _on_message(self, raw):
+        kind = raw._connection_header.get('type', '')
+        msg_class = TYPES.get(kind)
+        if msg_class is None:
+            rospy.logwarn_throttle(10.0, 'ignoring a %s on %s: takes geometry_msgs/Twist or TwistStamped',
+                                   kind, self._sub.resolved_name)
+            return
+        msg = msg_class().deserialize(raw._buff)
+        self._callback(twist_of(msg), msg)
+
+
+class TwistPublisher:
+    """Publishes on ``topic`` the type last given (Twist until a TwistStamped comes): the gate forwards what it
+    receives. A change of type re-advertises the topic with the new type."""
+
+    def __init__(self, topic, queue_size=10):
+        self._topic, self._queue_size = topic, queue_size
+        self._pub = rospy.Publisher(topic, Twist, queue_size=queue_size)
+        self._type = Twist
+        self._frame_id = ''
+
+    def publish(self, msg):
+        if type(msg) is not self._type:
+            self._pub.unregister()
+            self._type = type(msg)
+            self._pub = rospy.Publisher(self._topic, self._type, queue_size=self._queue_size)
+        if isinstance(msg, TwistStamped):
+            self._frame_id = msg.header.frame_id
+        self._pub.publish(msg)
+
+    def publish_stop(self, like=None):
+        """A zero command of the type of ``like`` (default: the type last forwarded), stamped now in the frame
+        last seen."""
+        if (type(like) if like is not None else self._type) is TwistStamped:
+            stop = TwistStamped()
+            stop.header.frame_id = like.header.frame_id if like is not None else self._frame_id
+            stop.header.stamp = rospy.Time.now()
+            self.publish(stop)
+        else:
+            self.publish(Twist())
