@@ -18,6 +18,8 @@ ARRIVED_M = 0.08          # a waypoint counts as reached within this distance (o
 DOCKED_M = 0.15           # stop this close to the dock: well inside battery_dock_contact's radius (0.3 m)
 MAX_TURN_RADPS = 1.5
 DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
+#: the same as ROS 2 takes it (its parameters hold no list of lists)
+DEFAULT_WAYPOINTS_FLAT = [c for point in DEFAULT_WAYPOINTS for c in point]
 #: how a charge goal ended, as the front end tells it
 GOAL_SUCCEEDED, GOAL_FAILED = 'succeeded', 'failed'
 
@@ -25,8 +27,9 @@ GOAL_SUCCEEDED, GOAL_FAILED = 'succeeded', 'failed'
 def waypoint_pairs(value):
     """[(x, y)] of a list of [x, y] points, or of a flat list x1, y1, x2, y2 ... (ROS 2 parameters hold no
     list of lists); None when it is neither (or empty)."""
-    if not isinstance(value, (list, tuple)) or not value:
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, '__len__') or not value:
         return None
+    value = list(value)   # rclpy gives a double array as array.array
     if all(isinstance(p, (list, tuple)) and len(p) == 2 and all(is_number(c) for c in p) for p in value):
         return [(float(p[0]), float(p[1])) for p in value]
     if len(value) % 2 == 0 and all(is_number(c) for c in value):

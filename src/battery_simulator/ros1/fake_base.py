@@ -50,7 +50,7 @@ class FakeBase:
         self._tf = tf2_ros.TransformBroadcaster()
         self._sub = TwistSubscriber(topics.CMD_VEL, self._on_cmd_vel)
 
-    def _on_cmd_vel(self, twist):
+    def _on_cmd_vel(self, twist, msg=None):
         linear, angular = twist.linear.x, twist.angular.z
         with self._lock:
             taken = self._base.command(linear, angular, rospy.get_time())

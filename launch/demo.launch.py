@@ -1,0 +1,78 @@
+"""ROS 2: a robot that docks when low, as separate processes (demo.launch's ROS 2 twin; ``battery_demo`` runs
+the same in one process): sim.launch.py on sim_clock, fake_base, the dock contact, the cut-off gate and
+patrol_and_dock, every node on use_sim_time.
+
+    patrol_and_dock -> cmd_vel_nav -> battery_cmd_vel_gate -> cmd_vel -> fake_base (and the battery's motion load)
+    fake_base -> odom -> battery_dock_contact -> charger_contact -> battery (charger)
+
+    ros2 launch battery_simulator demo.launch.py [speed:=240] [dashboard:=true]
+"""
+import os
+
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription, OpaqueFunction
+from launch.launch_description_sources import PythonLaunchDescriptionSource
+from launch_ros.actions import Node
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ARGUMENTS = (
+    ('namespace', '', 'Namespace of the robot; empty: the root.'),
+    ('speed', '60', 'The whole demo runs on sim_clock this many times as fast as wall time.'),
+    ('tick_hz', '250', 'sim_clock ticks per wall second (every node handles each tick).'),
+    ('initial_percentage', '40', 'Battery level at start, %.'),
+    ('gauge', 'ideal', 'ideal: the robot reads the truth; realistic: config/battery_realistic.yaml.'),
+    ('config', '', 'Battery parameters (empty: by gauge).'),
+    ('rate', '2.0', 'battery_status rate, Hz.'),
+    ('low_percentage', '0.25', 'The robot heads for the dock below this fraction.'),
+    ('robot_speed', '0.3', "The robot's cruising speed, m/s."),
+    ('dock_x', '0.0', 'The dock, x (m).'),
+    ('dock_y', '0.0', 'The dock, y (m).'),
+    ('dashboard', 'false', 'true: also the live dashboard (dashboard.launch.py).'),
+    ('dashboard_port', '8090', 'With dashboard: its TCP port.'),
+)
+#: ROS time starts once every node of the demo is up: a slow start costs no battery
+CLOCK_WAIT_FOR = 'battery_simulator/state,battery_status,battery_low,odom,charger_contact,cmd_vel,patrol_and_dock/phase'
+
+
+def config_path(values):
+    if values['config']:
+        return values['config']
+    from ament_index_python.packages import get_package_share_directory
+    name = 'battery_realistic.yaml' if values['gauge'] == 'realistic' else 'battery.yaml'
+    return os.path.join(get_package_share_directory('battery_simulator'), 'config', name)
+
+
+def _actions(context):
+    values = context.launch_configurations
+    ns = values['namespace']
+    sim = {'sim_time': True}
+    actions = [IncludeLaunchDescription(PythonLaunchDescriptionSource(os.path.join(HERE, 'sim.launch.py')),
+                                        launch_arguments={
+        'namespace': ns, 'speed': values['speed'], 'tick_hz': values['tick_hz'], 'clock_wait_for': CLOCK_WAIT_FOR,
+        'initial_percentage': values['initial_percentage'], 'config': config_path(values), 'rate': values['rate'],
+        'low_percentage': values['low_percentage']}.items())]
+    if values['dashboard'].lower() in ('true', '1'):
+        actions.append(IncludeLaunchDescription(
+            PythonLaunchDescriptionSource(os.path.join(HERE, 'dashboard.launch.py')),
+            launch_arguments={'port': values['dashboard_port']}.items()))
+    dock = {'dock_x': float(values['dock_x']), 'dock_y': float(values['dock_y'])}
+    use_sim_time = {'use_sim_time': sim['sim_time']}
+    actions += [
+        # off the dock: a robot that starts on it would charge at once
+        Node(package='battery_simulator', executable='fake_base', name='fake_base', namespace=ns, output='screen',
+             parameters=[{'x': 1.0, **use_sim_time}]),
+        Node(package='battery_simulator', executable='battery_cmd_vel_gate', name='battery_cmd_vel_gate',
+             namespace=ns, output='screen', parameters=[use_sim_time],
+             remappings=[('cmd_vel_in', 'cmd_vel_nav'), ('cmd_vel_out', 'cmd_vel')]),
+        Node(package='battery_simulator', executable='battery_dock_contact', name='battery_dock_contact',
+             namespace=ns, output='screen', parameters=[{**dock, **use_sim_time}]),
+        Node(package='battery_simulator', executable='patrol_and_dock', name='patrol_and_dock', namespace=ns,
+             output='screen', remappings=[('cmd_vel', 'cmd_vel_nav')],
+             parameters=[{'speed': float(values['robot_speed']), **dock, **use_sim_time}]),
+    ]
+    return actions
+
+
+def generate_launch_description():
+    return LaunchDescription([DeclareLaunchArgument(name, default_value=default, description=text)
+                              for name, default, text in ARGUMENTS] + [OpaqueFunction(function=_actions)])

@@ -1,0 +1,62 @@
+"""ROS 2: the simulated battery (sim.launch's ROS 2 twin): ``battery_sim`` (the nodes battery_simulator and
+battery_state_pub in one process), and with ``speed`` the clock ``sim_clock`` with every node on it.
+
+    ros2 launch battery_simulator sim.launch.py [speed:=60] [initial_percentage:=80] ...
+
+Every name is relative: ``namespace:=robot1`` for one battery per robot.
+"""
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch_ros.actions import Node
+
+ARGUMENTS = (
+    ('namespace', '', 'Namespace of the battery (e.g. robot1); empty: the root.'),
+    ('time_scale', '22', 'Simulated seconds per wall second (ignored with speed).'),
+    ('initial_percentage', '100', 'State of charge at start, 0-100 %.'),
+    ('charging', 'false', 'Initial mode: true charges, false discharges.'),
+    ('rate', '1.0', 'battery_status publication rate, Hz.'),
+    ('config', '', 'YAML file of battery parameters (empty: the package config/battery.yaml).'),
+    ('update_rate', '10', 'Model updates (and action feedback) per second, Hz.'),
+    ('state_file', '', 'Optional JSON file the state is saved to and resumed from.'),
+    ('low_percentage', '0.20', 'battery_low turns true below this fraction.'),
+    ('critical_percentage', '0.05', 'battery_critical turns true below this fraction.'),
+    ('hysteresis', '0.05', 'A low/critical event clears above its threshold plus this fraction.'),
+    ('speed', '', 'Run on sim_clock this many times as fast as wall time (use_sim_time); empty: wall time.'),
+    ('tick_hz', '1000', 'With speed: /clock ticks per wall second.'),
+    ('clock_wait_for', '', 'With speed: topics (comma-separated) that must have a publisher before time runs.'),
+)
+
+
+def sim_nodes(values):
+    """The Node actions of sim.launch.py for launch configuration ``values`` (strings)."""
+    sim_time = values['speed'] != ''
+    nodes = []
+    if values['speed'] != '':
+        clock = {'speed': float(values['speed']), 'tick_hz': float(values['tick_hz'])}
+        wait_for = [topic.strip() for topic in values['clock_wait_for'].split(',') if topic.strip()]
+        if wait_for:   # (a parameters file holds no empty list)
+            clock['wait_for'] = wait_for
+        nodes.append(Node(package='battery_simulator', executable='sim_clock', name='sim_clock',
+                          namespace=values['namespace'], output='screen', parameters=[clock]))
+    battery = {
+        'time_scale': float(values['time_scale']), 'initial_percentage': float(values['initial_percentage']),
+        'charging': values['charging'].lower() in ('true', '1'), 'update_rate': float(values['update_rate']),
+        'state_file': values['state_file'], 'rate': float(values['rate']),
+        'low_percentage': float(values['low_percentage']),
+        'critical_percentage': float(values['critical_percentage']), 'hysteresis': float(values['hysteresis']),
+        'use_sim_time': sim_time}
+    if values['config']:
+        battery['config'] = values['config']
+    # respawn: a crashed battery comes back; with state_file it resumes from it
+    nodes.append(Node(package='battery_simulator', executable='battery_sim', namespace=values['namespace'],
+                      output='screen', respawn=True, respawn_delay=1.0, parameters=[battery]))
+    return nodes
+
+
+def _nodes(context):
+    return sim_nodes(context.launch_configurations)
+
+
+def generate_launch_description():
+    return LaunchDescription([DeclareLaunchArgument(name, default_value=default, description=text)
+                              for name, default, text in ARGUMENTS] + [OpaqueFunction(function=_nodes)])

@@ -1,0 +1,97 @@
+"""``sim_clock`` (ROS 2): ``/clock`` running ``speed`` times as fast as wall time, as ROS 1's sim_clock.py.
+
+It ticks ``tick_hz`` times a second of wall time (default 1000), each tick advancing ROS time by
+``speed / tick_hz``, counted in ticks from ``start`` (robot/clock.py's policy: it never drifts; when the
+machine cannot keep up the clock runs slower than asked and says so). With ``wait_for`` (a list of topic
+names) it holds ROS time at ``start`` until each has a publisher (at most ``wait_timeout`` wall s). Every
+node started with ``use_sim_time:=true`` follows it.
+
+:Parameters: ``speed`` (0 < s <= 10000, default 1), ``start`` (s, 0), ``tick_hz`` (0 < f <= 10000, 1000),
+  ``wait_for`` (topic names, none), ``wait_timeout`` (s, 60)
+:Publishes: ``/clock`` (rosgraph_msgs/msg/Clock)
+"""
+import os
+import sys
+import threading
+import time
+
+from rosgraph_msgs.msg import Clock
+from rclpy.time import Time
+
+from battery_simulator.robot import clock as rule
+from battery_simulator.ros2.robot_node import run_node
+from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER
+
+
+def clock_msg(seconds):
+    return Clock(clock=Time(nanoseconds=int(round(seconds * 1e9))).to_msg())
+
+
+class SimClock:
+    """Publishes /clock from a thread of its own (wall time: this node makes ROS time); the node's executor
+    serves its parameters. ``start_now`` False: the caller calls ``start()`` (battery_demo, once every node
+    of its process is up)."""
+
+    def __init__(self, node, speed, start, tick_hz, wait_for=(), wait_timeout=60.0, start_now=True):
+        self._node = node
+        self._speed, self._start, self._tick_hz = speed, start, tick_hz
+        self._wait_for = [node.resolve_topic_name(topic) for topic in wait_for]
+        self._wait_timeout = wait_timeout
+        self._pub = node.create_publisher(Clock, '/clock', 10)
+        self._stopped = threading.Event()
+        self._thread = threading.Thread(target=self._run, name='sim_clock', daemon=True)
+        if start_now:
+            self.start()
+
+    def start(self):
+        self._thread.start()
+
+    def stop(self):
+        self._stopped.set()
+
+    def _hold(self):
+        """Publish ``start`` until every ``wait_for`` topic has a publisher (bounded, wall time)."""
+        log = self._node.get_logger()
+        deadline = time.monotonic() + self._wait_timeout
+        missing = self._wait_for
+        log.info('sim_clock: holding ROS time at %g s until %s are published' % (self._start, ', '.join(missing)))
+        while missing and not self._stopped.is_set():
+            self._pub.publish(clock_msg(self._start))
+            missing = [topic for topic in missing if self._node.count_publishers(topic) == 0]
+            if missing and time.monotonic() > deadline:
+                log.warn('sim_clock: no publisher of %s after %g s: starting the clock anyway'
+                         % (', '.join(missing), self._wait_timeout))
+                return
+            if missing:
+                self._stopped.wait(rule.HOLD_PERIOD_S)
+
+    def _run(self):
+        try:
+            self._tick()
+        except Exception as error:   # a context shut down under the thread: the process is ending
+            if not self._stopped.is_set() and self._node.context.ok():
+                raise error
+
+    def _tick(self):
+        if self._wait_for:
+            self._hold()
+        log = self._node.get_logger()
+        schedule = rule.TickSchedule(self._speed, self._start, self._tick_hz, time.monotonic())
+        log.info(schedule.start_line())
+        while not self._stopped.is_set() and self._node.context.ok():
+            try:
+                now = schedule.tick()
+            except rule.ClockTooFar:
+                log.fatal(rule.too_far_line('start'))
+                sys.stderr.flush()
+                os._exit(EXIT_BAD_PARAMETER)
+            self._pub.publish(clock_msg(now))
+            delay_s, behind = schedule.delay(time.monotonic())
+            if delay_s > 0.0:
+                time.sleep(delay_s)
+            elif behind:
+                log.warn(schedule.behind_line(), throttle_duration_sec=10.0)
+
+
+def main(args=None):
+    run_node('sim_clock', rule.SETTINGS, SimClock, args)
