@@ -25,7 +25,7 @@ class CmdVelGate:
         change = self._gate.on_state(state.charging_state)
         if change == 'empty':
             self._pub.publish_stop()   # the motors stop
-            self._node.get_logger().warn('battery empty (%s): motion stopped, commands dropped' % state.cut_off)
+            self._node.get_logger().warning('battery empty (%s): motion stopped, commands dropped' % state.cut_off)
         elif change == 'not empty':
             self._node.get_logger().info('battery no longer empty: relaying commands again')
 
@@ -37,7 +37,7 @@ class CmdVelGate:
         elif action == rule.STOP:   # once per run of bad commands: the motors stop rather than get NaN
             self._pub.publish_stop(like=msg)
         if action in (rule.STOP, rule.BAD):
-            self._node.get_logger().warn(rule.bad_command_line(values), throttle_duration_sec=10.0)
+            self._node.get_logger().warning(rule.bad_command_line(values), throttle_duration_sec=10.0)
 
 
 def main(args=None):

@@ -30,7 +30,7 @@ class DockContact:
         try:
             changed = self._contact.update(position.x, position.y, twist.linear.x, twist.linear.y)
         except ValueError as error:
-            self._node.get_logger().warn(str(error), throttle_duration_sec=10.0)
+            self._node.get_logger().warning(str(error), throttle_duration_sec=10.0)
             return
         if changed is not None:
             self._node.get_logger().info('charger contact: %s' % changed)

@@ -71,7 +71,7 @@ class PatrolAndDock:
         if not self._status_seen and waited_s <= STARTUP_WAIT_S:
             return
         if not self._status_seen:
-            self._node.get_logger().warn('no %s after %g s: patrolling without the level' % (
+            self._node.get_logger().warning('no %s after %g s: patrolling without the level' % (
                 self._node.resolve_topic_name(topics.BATTERY_STATUS), STARTUP_WAIT_S))
         self._node.destroy_timer(self._startup)
         self._patrol.start()
@@ -141,7 +141,7 @@ class PatrolAndDock:
         if status == GoalStatus.STATUS_SUCCEEDED:
             self._goal_outcome = rule.GOAL_SUCCEEDED
             return
-        self._node.get_logger().warn('charge goal ended in state %d (%s): sending it again' % (status, text))
+        self._node.get_logger().warning('charge goal ended in state %d (%s): sending it again' % (status, text))
         self._goal_outcome = rule.GOAL_FAILED
 
 

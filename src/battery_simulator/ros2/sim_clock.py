@@ -59,7 +59,7 @@ class SimClock:
             self._pub.publish(clock_msg(self._start))
             missing = [topic for topic in missing if self._node.count_publishers(topic) == 0]
             if missing and time.monotonic() > deadline:
-                log.warn('sim_clock: no publisher of %s after %g s: starting the clock anyway'
+                log.warning('sim_clock: no publisher of %s after %g s: starting the clock anyway'
                          % (', '.join(missing), self._wait_timeout))
                 return
             if missing:
@@ -90,7 +90,7 @@ class SimClock:
             if delay_s > 0.0:
                 time.sleep(delay_s)
             elif behind:
-                log.warn(schedule.behind_line(), throttle_duration_sec=10.0)
+                log.warning(schedule.behind_line(), throttle_duration_sec=10.0)
 
 
 def main(args=None):
