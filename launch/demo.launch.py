@@ -45,7 +45,6 @@ def config_path(values):
 def _actions(context):
     values = context.launch_configurations
     ns = values['namespace']
-    sim = {'sim_time': True}
     actions = [IncludeLaunchDescription(PythonLaunchDescriptionSource(os.path.join(HERE, 'sim.launch.py')),
                                         launch_arguments={
         'namespace': ns, 'speed': values['speed'], 'tick_hz': values['tick_hz'], 'clock_wait_for': CLOCK_WAIT_FOR,
@@ -56,7 +55,7 @@ def _actions(context):
             PythonLaunchDescriptionSource(os.path.join(HERE, 'dashboard.launch.py')),
             launch_arguments={'port': values['dashboard_port']}.items()))
     dock = {'dock_x': float(values['dock_x']), 'dock_y': float(values['dock_y'])}
-    use_sim_time = {'use_sim_time': sim['sim_time']}
+    use_sim_time = {'use_sim_time': True}
     actions += [
         # off the dock: a robot that starts on it would charge at once
         Node(package='battery_simulator', executable='fake_base', name='fake_base', namespace=ns, output='screen',

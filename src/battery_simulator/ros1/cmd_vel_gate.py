@@ -29,7 +29,7 @@ class CmdVelGate:
     def __init__(self):
         self._lock = threading.Lock()   # guards _gate and the commands and stops published
         self._gate = rule.CmdVelGate()
-        self._pub = TwistPublisher('cmd_vel_out', queue_size=10)
+        self._pub = TwistPublisher('cmd_vel_out', queue_size=10, like_topics=('cmd_vel_in',))
         self._state_sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
         self._cmd_sub = TwistSubscriber('cmd_vel_in', self._on_cmd_vel, queue_size=10)
 

@@ -1,5 +1,6 @@
 """Velocity commands of either type on ROS 1: geometry_msgs/Twist or TwistStamped (Nav2's default on ROS 2,
 and what a bridged or newer controller sends), told apart by the publisher's connection header."""
+import rosgraph
 import rospy
 from geometry_msgs.msg import Twist, TwistStamped
 
@@ -29,14 +30,28 @@ class TwistSubscriber:
         self._callback(twist_of(msg), msg)
 
 
-class TwistPublisher:
-    """Publishes on ``topic`` the type last given (Twist until a TwistStamped comes): the gate forwards what it
-    receives. A change of type re-advertises the topic with the new type."""
+def known_type(topics):
+    """The message class the master knows for the first of ``topics`` that it knows as Twist or TwistStamped
+    (a subscriber registers its type too), else Twist."""
+    try:
+        known = dict(rosgraph.Master(rospy.get_name()).getTopicTypes())
+    except (OSError, rosgraph.MasterException):
+        return Twist
+    for topic in topics:
+        if known.get(rospy.resolve_name(topic)) in TYPES:
+            return TYPES[known[rospy.resolve_name(topic)]]
+    return Twist
 
-    def __init__(self, topic, queue_size=10):
+
+class TwistPublisher:
+    """Publishes on ``topic`` the type last given: the gate forwards what it receives. It starts with the type
+    the master knows for ``topic`` or ``like_topics`` (Twist if none), and a change of type re-advertises the
+    topic (a typed subscriber of the other type reconnects then)."""
+
+    def __init__(self, topic, queue_size=10, like_topics=()):
         self._topic, self._queue_size = topic, queue_size
-        self._pub = rospy.Publisher(topic, Twist, queue_size=queue_size)
-        self._type = Twist
+        self._type = known_type((topic,) + tuple(like_topics))
+        self._pub = rospy.Publisher(topic, self._type, queue_size=queue_size)
         self._frame_id = ''
 
     def publish(self, msg):
