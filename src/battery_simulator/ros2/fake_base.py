@@ -13,7 +13,8 @@ from nav_msgs.msg import Odometry
 
 from battery_simulator.core import topics
 from battery_simulator.robot import base
-from battery_simulator.ros2.robot_node import TwistSubscriber, run_node
+from battery_simulator.ros2.robot_node import run_node
+from battery_simulator.ros2.twist import TwistSubscriber
 
 try:
     from tf2_msgs.msg import TFMessage
