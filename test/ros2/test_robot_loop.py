@@ -163,3 +163,24 @@ def test_patrol_and_dock_waits_for_the_battery_then_patrols(probe):
     finally:
         for process in (behaviour, base, battery):
             stopped(process)
+
+
+def test_sim_clock_holds_ros_time_until_the_named_topics_have_publishers(probe):
+    clock = NodeProcess('sim_clock', '-p', 'speed:=10.0', '-p', 'start:=100.0', '-p', 'tick_hz:=100.0',
+                        '-p', "wait_for:=['held/ready']", '-r', '__ns:=/held')
+    try:
+        since = time.monotonic()
+        ticks = probe.follow('/clock', Clock)
+        assert probe.wait_for('/clock', Clock, lambda m: len([at for at, _ in ticks if at >= since]) >= 10, 20.0,
+                              since=since) is not None, clock.output()
+        held = {m.clock.sec for at, m in ticks if at >= since}
+        assert held == {100}, 'the clock ran before held/ready had a publisher: %s' % sorted(held)
+        assert clock.wait_for_output('holding ROS time at 100 s until /held/held/ready', 5.0), clock.output()
+        ready = probe.node.create_publisher(Bool, '/held/held/ready', 1)
+        try:
+            assert probe.wait_for('/clock', Clock, lambda m: m.clock.sec > 101, 20.0) is not None, \
+                'the clock did not start once held/ready had a publisher:\n' + clock.output()
+        finally:
+            probe.node.destroy_publisher(ready)
+    finally:
+        stopped(clock)
