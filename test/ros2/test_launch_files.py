@@ -170,7 +170,8 @@ def test_the_launch_files_start_the_executables_and_parameters_of_their_ros1_twi
     demo = {n.kwargs['executable']: n for n in nodes_of(LAUNCH / 'demo.launch.py')}
     assert sorted(demo) == ['battery_cmd_vel_gate', 'battery_dock_contact', 'battery_sim', 'fake_base',
                             'patrol_and_dock', 'sim_clock']
-    assert all(n.kwargs['parameters'][0]['use_sim_time'] for n in demo.values() if n.kwargs['executable'] != 'sim_clock')
+    assert all(n.kwargs['parameters'][0]['use_sim_time'] for n in demo.values()
+               if n.kwargs['executable'] != 'sim_clock')
     assert demo['battery_sim'].kwargs['parameters'][0]['low_percentage'] == 0.25
     assert demo['battery_sim'].kwargs['parameters'][0]['initial_percentage'] == 40.0
     assert demo['sim_clock'].kwargs['parameters'][0]['speed'] == 60.0

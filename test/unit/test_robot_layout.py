@@ -32,8 +32,9 @@ def test_each_loop_node_has_the_same_module_in_both_front_ends_over_its_rule(mod
         path = PACKAGE / front_end / (module + '.py')
         assert path.is_file(), '%s/%s.py is missing' % (front_end, module)
         if rule:
-            assert 'battery_simulator.robot.%s' % rule in imported(path) or \
-                'battery_simulator.robot' in imported(path), '%s/%s.py does not use robot/%s.py' % (front_end, module, rule)
+            names = imported(path)
+            assert 'battery_simulator.robot.%s' % rule in names, \
+                '%s/%s.py does not use robot/%s.py' % (front_end, module, rule)
     if executable:
         assert (ROOT / 'scripts' / (executable + '.py')).is_file()
         assert (ROOT / 'scripts' / 'ros2' / executable).is_file()

@@ -67,6 +67,7 @@ class PatrolAndDock:
                 self._node.get_logger().fatal('no action server %s after %g s' % (
                     self._node.resolve_topic_name(topics.ACTION), STARTUP_WAIT_S))
                 self._node.destroy_timer(self._startup)
+                self._node.context.try_shutdown()   # the process ends, as ROS 1's node does
             return
         if not self._status_seen and waited_s <= STARTUP_WAIT_S:
             return
