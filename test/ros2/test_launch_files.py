@@ -111,7 +111,8 @@ def nodes_of(path, arguments=None, modules=None):
 
 
 def ros_args(node, params_dir):
-    """The command line launch_ros gives a Node action: --ros-args, name, namespace, remaps, parameters."""
+    """The command line launch_ros gives a Node action: --ros-args, name, namespace, remaps, parameters (a file
+    of its own for each node: two hosts of one executable must not share one)."""
     kwargs = node.kwargs
     args = []
     if kwargs.get('name'):
@@ -121,7 +122,8 @@ def ros_args(node, params_dir):
     for source, target in kwargs.get('remappings', ()):
         args += ['-r', '%s:=%s' % (source, target)]
     for index, parameters in enumerate(kwargs.get('parameters', ())):
-        path = os.path.join(params_dir, '%s_%d.yaml' % (kwargs['executable'], index))
+        path = tempfile.NamedTemporaryFile(dir=params_dir, prefix='%s_%d_' % (kwargs['executable'], index),
+                                           suffix='.yaml', delete=False).name
         with open(path, 'w', encoding='utf-8') as stream:
             yaml.safe_dump({'/**': {'ros__parameters': dict(parameters)}}, stream)
         args += ['--params-file', path]
