@@ -5,6 +5,7 @@ Both front ends read them: the rospy nodes as private parameters
 with a descriptor built from ``description`` and ``allowed``). A bad value
 stops a node with one line: ``parameter NAME = VALUE is invalid: must be ALLOWED``.
 """
+import re
 from collections import namedtuple
 
 from battery_simulator.core.parameters import default_config_path, is_number
@@ -42,6 +43,14 @@ BATTERY_SETTINGS = (
             'under use_sim_time: a forward jump of ROS time larger than this between two updates restarts '
             'the time base (nothing drained)', False),
 )
+#: a ROS name, relative or absolute, of letters, digits, underscores and slashes (ROS 1 and ROS 2 alike)
+_TOPIC_NAME = re.compile(r'^/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
+
+
+def _topic_or_empty(value):
+    return isinstance(value, str) and (value == '' or _TOPIC_NAME.match(value) is not None)
+
+
 #: battery_state_pub's settings
 PUBLISHER_SETTINGS = (
     Setting('rate', 1.0, _rate, 'a number in (0, 1000] Hz', 'battery_status publications per second', False),
@@ -53,6 +62,9 @@ PUBLISHER_SETTINGS = (
             'battery_critical below this (0-1, at most low_percentage)', False),
     Setting('hysteresis', 0.05, _fraction, 'a fraction in [0, 1]',
             'an event clears above its threshold plus this (0-1)', False),
+    Setting('battery_state_topic', 'battery_state', _topic_or_empty, 'a topic name (or empty: none)',
+            'the same BatteryState also on this topic, relative to the robot (opennav_docking reads '
+            'battery_state; empty: battery_status only)', False),
 )
 
 
