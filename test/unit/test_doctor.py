@@ -1,9 +1,11 @@
 """battery_doctor's rules (core/doctor.py), with no ROS: each finding, its fix, and a clean graph."""
 import math
 
+import pytest
+
 from battery_simulator.core.doctor import (BEST_EFFORT, EXIT_CLEAN, EXIT_FOUND, RELIABLE, TRANSIENT_LOCAL,
                                            VOLATILE, Endpoint, Graph, Sample, findings, listing, report,
-                                           topic_of_interest)
+                                           UsageError, parse_arguments, topic_of_interest)
 
 BATTERY = 'sensor_msgs/msg/BatteryState'
 TWIST = 'geometry_msgs/msg/Twist'
@@ -199,3 +201,13 @@ def test_topics_of_interest_by_type_or_name():
     assert topic_of_interest('/robot1/cmd_vel', ['std_msgs/msg/String'])
     assert topic_of_interest('/nav/out', [STAMPED])
     assert not topic_of_interest('/robot1/odom', ['nav_msgs/msg/Odometry'])
+
+
+def test_command_line():
+    assert parse_arguments([]) == {'wait': 2.0, 'sample': 3.0}
+    assert parse_arguments(['--wait', '0.5', '--sample=1']) == {'wait': 0.5, 'sample': 1.0}
+    for bad, named in ((['--wait', '-1'], '--wait -1'), (['--wait', 'nan'], '--wait nan'), (['--sample'], '--sample'),
+                       (['--frobnicate'], '--frobnicate'), (['extra'], 'extra'), (['--wait', '61'], '--wait 61')):
+        with pytest.raises(UsageError) as error:
+            parse_arguments(bad)
+        assert named in str(error.value) and '\n' not in str(error.value), (bad, str(error.value))

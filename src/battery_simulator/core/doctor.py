@@ -266,3 +266,41 @@ def report(graph):
     problems = findings(graph)
     summary = ('%d problem(s) found' % len(problems)) if problems else 'no problems found'
     return listing(graph) + problems + [summary], (EXIT_FOUND if problems else EXIT_CLEAN)
+
+
+#: the bounds of --wait and --sample (seconds)
+MAX_WAIT_S = 60.0
+#: BatteryState messages sampled per battery topic (fewer if --sample ends first)
+SAMPLES_PER_TOPIC = 3
+
+
+class UsageError(ValueError):
+    """A bad command line; the message names the option, its value and what is allowed."""
+
+
+def parse_arguments(argv, program='battery_doctor'):
+    """``[--wait S] [--sample S]`` -> {'wait': s, 'sample': s}, or UsageError (one line)."""
+    options = {'wait': 2.0, 'sample': 3.0}
+    rest = list(argv)
+    while rest:
+        word = rest.pop(0)
+        if word in ('-h', '--help'):
+            raise UsageError('usage: %s [--wait S] [--sample S]: S seconds of discovery (default 2) and of '
+                             'sampling each battery topic (default 3), each in (0, %g]' % (program, MAX_WAIT_S))
+        name = word[2:] if word.startswith('--') else None
+        if '=' in (name or ''):
+            name, value = name.split('=', 1)
+        elif name in options and rest:
+            value = rest.pop(0)
+        else:
+            value = None
+        if name not in options or value is None:
+            raise UsageError('%s: unknown argument %r (allowed: --wait S, --sample S)' % (program, word))
+        try:
+            seconds = float(value)
+        except ValueError:
+            seconds = math.nan
+        if not 0.0 < seconds <= MAX_WAIT_S:
+            raise UsageError('%s: --%s %s: must be a number of seconds in (0, %g]' % (program, name, value, MAX_WAIT_S))
+        options[name] = seconds
+    return options
