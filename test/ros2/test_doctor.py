@@ -54,7 +54,7 @@ def test_a_battery_sim_with_a_correct_reader_is_clean(probe):
     try:
         assert probe.wait_for('/clean/battery_status', BatteryState, timeout_s=20.0) is not None, \
             'no battery_status from battery_sim:\n' + sim.output()
-        code, output = run_doctor('--wait', '2', '--sample', '3')
+        code, output = run_doctor('--sample', '3')
         assert code == 0 and not problems(output), 'doctor not clean (exit %s):\n%s' % (code, output)
         assert re.search(r'^publisher +/clean/battery_status +sensor_msgs/msg/BatteryState +/clean/battery_state_pub '
                          r'\(reliable, volatile', output, re.M), output
@@ -85,7 +85,7 @@ def test_each_planted_mismatch_is_named(probe):
         'pub,node=battery_b,ns=/r6,topic=battery_status,type=BatteryState')
     try:
         assert probe.wait_for('/r1/battery_status', BatteryState, timeout_s=20.0) is not None, sim.output()
-        code, output = run_doctor('--wait', '2', '--sample', '3')
+        code, output = run_doctor('--sample', '3')
         found = problems(output)
         assert code == 1, 'exit %s:\n%s' % (code, output)
 

@@ -278,15 +278,15 @@ class UsageError(ValueError):
     """A bad command line; the message names the option, its value and what is allowed."""
 
 
-def parse_arguments(argv, program='battery_doctor'):
+def parse_arguments(argv, program='battery_doctor', wait_s=2.0):
     """``[--wait S] [--sample S]`` -> {'wait': s, 'sample': s}, or UsageError (one line)."""
-    options = {'wait': 2.0, 'sample': 3.0}
+    options = {'wait': wait_s, 'sample': 3.0}
     rest = list(argv)
     while rest:
         word = rest.pop(0)
         if word in ('-h', '--help'):
-            raise UsageError('usage: %s [--wait S] [--sample S]: S seconds of discovery (default 2) and of '
-                             'sampling each battery topic (default 3), each in (0, %g]' % (program, MAX_WAIT_S))
+            raise UsageError('usage: %s [--wait S] [--sample S]: S seconds of discovery (default %g) and of '
+                             'sampling each battery topic (default 3), each in (0, %g]' % (program, wait_s, MAX_WAIT_S))
         name = word[2:] if word.startswith('--') else None
         if '=' in (name or ''):
             name, value = name.split('=', 1)

@@ -2,7 +2,7 @@
 
     ros2 run battery_simulator battery_doctor [--wait S] [--sample S] [--ros-args ...]
 
-Waits ``--wait`` seconds (default 2) for discovery, lists every battery publisher and every
+Waits ``--wait`` seconds (default 5) for discovery, lists every battery publisher and every
 subscriber of a battery or velocity topic with its type and QoS (reliability, durability, depth
 where discovery tells it), samples each battery topic for up to ``--sample`` seconds (default 3)
 with a QoS each publisher matches, then prints one line per finding (core/doctor.py's rules).
@@ -14,6 +14,10 @@ import time
 from battery_simulator.core import doctor
 
 STEP_S = 0.05
+#: the default discovery wait: Fast DDS announces a participant every 3 s, and one outside another's
+#: initial-peer range (127.0.0.1, the first few participant ids) is found only by that announcement
+#: (2 s missed the test process's endpoints in test_consumers.py, 4 s found them)
+DISCOVERY_WAIT_S = 5.0
 
 
 def _endpoint(info):
@@ -98,7 +102,7 @@ def main(argv=None):
     ros_args = argv[argv.index('--ros-args'):] if '--ros-args' in argv else []
     ours = argv[:argv.index('--ros-args')] if ros_args else argv
     try:
-        options = doctor.parse_arguments(ours)
+        options = doctor.parse_arguments(ours, wait_s=DISCOVERY_WAIT_S)
     except doctor.UsageError as error:
         print(error, file=sys.stderr)
         sys.exit(doctor.EXIT_USAGE)
