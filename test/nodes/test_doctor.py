@@ -53,12 +53,13 @@ class TestDoctor(unittest.TestCase):
 
         planted = [
             plant('planted_a',
+                  'pub,topic=/r7/battery_status,type=BatteryState',
                   'pub,topic=/r2/cmd_vel,type=TwistStamped',
                   'pub,topic=/r4/battery_status,type=BatteryState,percentage=85',
                   'pub,topic=/r5/battery_status,type=BatteryState,current=-2.0,status=1',
                   'pub,topic=/r6/battery_status,type=BatteryState'),
             plant('planted_b',
-                  'sub,topic=/robot1/battery_state,type=BatteryState',
+                  'sub,topic=/r7/battery_state,type=BatteryState',
                   'sub,topic=/r2/cmd_vel,type=Twist',
                   'pub,topic=/r6/battery_status,type=BatteryState')]
         try:
@@ -69,8 +70,8 @@ class TestDoctor(unittest.TestCase):
         found = problems(output)
         self.assertEqual(code, 1, output)
         expected = {
-            'unpublished': ('problem: /robot1/battery_state:', '/planted_b',
-                            'remap /robot1/battery_state:=/robot1/battery_status'),
+            'unpublished': ('problem: /r7/battery_state:', '/planted_b',
+                            'remap /r7/battery_state:=/r7/battery_status'),
             'type': ('problem: /r2/cmd_vel:', '/planted_a publishes geometry_msgs/TwistStamped',
                      '/planted_b subscribes geometry_msgs/Twist only'),
             'percentage': ('problem: /r4/battery_status:', 'percentage 85 is above 1'),

@@ -1,5 +1,5 @@
 """battery_doctor (ROS 2) beside a live graph: clean with a battery_sim and a correct reader (exit 0);
-each of six planted mismatches named on a 'problem:' line of its own (exit 1).
+each of six planted mismatches (a battery of its own in /r7: battery_sim publishes battery_state too once Part 7 lands) named on a 'problem:' line of its own (exit 1).
 
 The doctor sees the whole ROS domain (the conftest gives this run one of its own), so the clean graph
 is checked before the planted one starts, and the planted one is stopped at the end of its test."""
@@ -37,7 +37,7 @@ def problems(output):
 
 
 def started(*specs):
-    process = NodeProcess(PLANTER, args=specs)
+    process = NodeProcess('python3', args=(PLANTER,) + specs)   # (its log goes to /tmp, named python3_*)
     assert process.wait_for_output('ready', 20.0), 'planter did not start:\n' + process.output()
     return process
 
@@ -73,13 +73,14 @@ def test_each_planted_mismatch_is_named(probe):
     sim = NodeProcess('battery_sim', '-r', '__ns:=/r1')
     # one process per side of a type mismatch: a DDS participant holds one type per topic
     first = started(
+        'pub,node=battery_state_pub,ns=/r7,topic=battery_status,type=BatteryState',
         'pub,node=controller_server,ns=/r2,topic=cmd_vel,type=TwistStamped',
         'pub,node=gz_bridge,ns=/r3,topic=battery_status,type=BatteryState,reliability=best_effort',
         'pub,node=battery_state_broadcaster,ns=/r4,topic=battery_status,type=BatteryState,percentage=85',
         'pub,node=inverted_driver,ns=/r5,topic=battery_status,type=BatteryState,current=-2.0,status=1',
         'pub,node=battery_a,ns=/r6,topic=battery_status,type=BatteryState')
     second = started(
-        'sub,node=docking_server,ns=/r1,topic=battery_state,type=BatteryState,depth=1',
+        'sub,node=docking_server,ns=/r7,topic=battery_state,type=BatteryState,depth=1',
         'sub,node=base_driver,ns=/r2,topic=cmd_vel,type=Twist',
         'sub,node=docking_server,ns=/r3,topic=battery_status,type=BatteryState,depth=1',
         'pub,node=battery_b,ns=/r6,topic=battery_status,type=BatteryState')
@@ -92,8 +93,8 @@ def test_each_planted_mismatch_is_named(probe):
         def named(*words):
             return [line for line in found if all(word in line for word in words)]
         expected = {
-            'unpublished': ('problem: /r1/battery_state:', '/r1/docking_server',
-                            'remap /r1/battery_state:=/r1/battery_status'),
+            'unpublished': ('problem: /r7/battery_state:', '/r7/docking_server',
+                            'remap /r7/battery_state:=/r7/battery_status'),
             'type': ('problem: /r2/cmd_vel:', '/r2/controller_server publishes geometry_msgs/TwistStamped',
                      '/r2/base_driver subscribes geometry_msgs/Twist only', 'enable_stamped_cmd_vel'),
             'qos': ('problem: /r3/battery_status:', 'QoS', '/r3/docking_server subscribes reliable',
