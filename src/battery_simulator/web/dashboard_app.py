@@ -30,7 +30,9 @@ import tornado.websocket
 from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, SET_STATE_TEMPERATURE_C
 from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
 
-STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
+#: resolved: a symlinked install (colcon --symlink-install) serves the files it links to, which tornado >= 6.5
+#: refuses outside the directory it was given
+STATIC_DIR = os.path.join(os.path.dirname(os.path.realpath(__file__)), 'static')
 CHART_JS_DIR = '/usr/share/javascript/chart.js'
 CHART_JS_FILE = 'chart.min.js'   # what battery.html loads from CHART_JS_DIR
 PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
