@@ -194,6 +194,8 @@ class ResistanceTable:
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
 #: set_state stop there), so every capacity the model divides by stays positive
 MIN_STATE_OF_HEALTH = 0.01
+#: the temperatures set_state takes, degC (low, high) inclusive
+SET_STATE_TEMPERATURE_C = (-60.0, 150.0)
 
 
 class BatteryModel:
@@ -294,8 +296,9 @@ class BatteryModel:
                                  'stay in [0, 100]' % (gauge_error, 100.0 * soc + gauge_error))
         if state_of_charge is not None:
             _check_fraction('state_of_charge', state_of_charge)
-        if temperature_c is not None and not (is_number(temperature_c) and -60.0 <= temperature_c <= 150.0):
-            raise ValueError('temperature_c = %r is invalid: must be in [-60, 150] degC' % (temperature_c,))
+        low_c, high_c = SET_STATE_TEMPERATURE_C
+        if temperature_c is not None and not (is_number(temperature_c) and low_c <= temperature_c <= high_c):
+            raise ValueError('temperature_c = %r is invalid: must be in [%g, %g] degC' % (temperature_c, low_c, high_c))
         if state_of_health is not None:
             _check_fraction('state_of_health', state_of_health)
             if state_of_health < MIN_STATE_OF_HEALTH:
