@@ -6,6 +6,8 @@ import math
 import random
 from dataclasses import dataclass
 
+import numpy
+
 from battery_simulator.core.battery_model import BatteryModel, Mode
 from battery_simulator.core.parameters import from_mapping
 
@@ -121,14 +123,15 @@ def write_bag(path, samples, commands, storage, start_s=1.7e9):
         for time_s, kind, item in events:
             stamp_ns = int(round((start_s + time_s) * 1e9))
             if kind == 0:
-                header = Header(stamp=Time(sec=stamp_ns // 10 ** 9, nanosec=stamp_ns % 10 ** 9), frame_id='')
-                if storage == 'ros1':
-                    header = types['std_msgs/msg/Header'](seq=0, stamp=header.stamp, frame_id='')
+                stamp = Time(sec=stamp_ns // 10 ** 9, nanosec=stamp_ns % 10 ** 9)
+                header = Header(seq=0, stamp=stamp, frame_id='') if storage == 'ros1' else \
+                    Header(stamp=stamp, frame_id='')
                 message = BatteryState(
                     header=header, voltage=item.voltage_v, temperature=item.temperature_c, current=item.current_a,
                     charge=math.nan, capacity=math.nan, design_capacity=math.nan, percentage=item.percentage,
                     power_supply_status=2, power_supply_health=1, power_supply_technology=2, present=True,
-                    cell_voltage=[], cell_temperature=[], location='base', serial_number='')
+                    cell_voltage=numpy.zeros(0, dtype=numpy.float32),
+                    cell_temperature=numpy.zeros(0, dtype=numpy.float32), location='base', serial_number='')
                 writer.write(battery, stamp_ns, serialize(message, BatteryState.__msgtype__))
             else:
                 message = Twist(linear=Vector3(x=item[1], y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=item[2]))

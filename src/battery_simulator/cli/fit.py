@@ -101,9 +101,10 @@ class ProgressBar:
             self._stream.flush()
 
 
-def run(args, stdout=sys.stdout, stderr=sys.stderr):
+def run(args, stdout=None, stderr=None):
     """Fit, write the config (and plot, profiles), print the report; FitError for a log that cannot be fitted."""
-    bar = ProgressBar(stderr)
+    stdout = stdout or sys.stdout
+    bar = ProgressBar(stderr or sys.stderr)
     try:
         chemistry = preset(args.chemistry)
     except ParameterError as error:

@@ -18,7 +18,7 @@ import numpy as np
 from battery_simulator.core.fit import FitError
 from battery_simulator.core.fit.circuit import (Chemistry, hat_basis, log_arrays, regressors, state_of_charge,
                                                  thermal)
-from battery_simulator.core.parameters import ParameterError
+from battery_simulator.core.parameters import MAX_CELLS, ParameterError
 
 #: the held-out part of each log (its last fraction), by default
 DEFAULT_HOLDOUT = 0.25
@@ -75,7 +75,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     has_rest = any(_has_rest(log, mask) for log, mask in zip(logs, masks))
     temperatures = [_preset_temperature(log, chemistry) for log in logs]
     electrical = _fit_electrical(logs, masks, chemistry, cells_series, 1, temperatures, has_rest, None)
-    cells_parallel = max(1, int(round(electrical.capacity_ah / chemistry_params.cell_capacity_ah)))
+    cells_parallel = min(MAX_CELLS, max(1, int(round(electrical.capacity_ah / chemistry_params.cell_capacity_ah))))
     heat_params = _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept)
     temperatures = [_model_temperature(log, chemistry, cells_parallel, electrical, heat_params) for log in logs]
     progress(0.55, 'capacity and resistances (with the heat)')
@@ -252,7 +252,8 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
         pieces, values, sigmas, residual = solve(solution.x, use_tables)
         rmse = float(np.sqrt(np.mean(residual ** 2)))
         results.append((rmse, use_tables, solution, pieces, values, sigmas))
-    rmse, use_tables, solution, pieces, values, sigmas = min(results, key=lambda r: r[0])
+    # the preset's SOC tables only where they explain the log better (else the simpler circuit)
+    rmse, use_tables, solution, pieces, values, sigmas = min(results, key=lambda r: r[0] * (1.0 + 0.02 * r[1]))
     best = dict(values)
     best.setdefault('offset', 0.0)
     uncertainty = _jacobian_sigmas(solution, rmse)
@@ -498,8 +499,9 @@ def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, ch
     currents = np.concatenate(charging)
     result = {}
     if len(currents) < 10:
-        kept['charge_current_a'] = 'no charge in the logs: the preset cell\'s C-rate times the parallel count'
-        result['charge_current_a'] = float('%.4g' % (p.charge_current_a / p.cells_parallel * cells_parallel))
+        kept['charge_current_a'] = 'no charge in the logs: the preset\'s C-rate at the fitted capacity'
+        result['charge_current_a'] = float('%.4g' % (p.charge_current_a / p.design_capacity_ah
+                                                     * changes['cell_capacity_ah'] * cells_parallel))
         return result
     current = float(np.percentile(currents, 90))
     result['charge_current_a'] = float('%.4g' % current)
@@ -510,9 +512,9 @@ def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, ch
                     else 0.0) for log, mask in zip(logs, masks)) / cells_series
     tapering = np.concatenate([c[c < 0.7 * current] for c in charging])
     if len(tapering) >= 5 and top > 0:
-        limit = min(top, changes['ocv_voltage_v'][-1])
+        limit = math.floor(1e4 * min(top, changes['ocv_voltage_v'][-1])) / 1e4   # within the OCV table
         if limit > changes['cell_cutoff_voltage_v']:
-            result['cell_charge_voltage_v'] = float('%.4f' % limit)
+            result['cell_charge_voltage_v'] = limit
             fitted['cell_charge_voltage_v'] = Fitted(result['cell_charge_voltage_v'], 'the charge\'s constant '
                                                      'voltage (its highest cell voltage, %d samples tapering)'
                                                      % len(tapering))

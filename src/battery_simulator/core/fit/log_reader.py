@@ -184,7 +184,7 @@ def _choose(path, connections, wanted_topic, types, what):
             raise FitError('%s: topic %s is %s, not %s' % (path, wanted_topic, topics[wanted_topic][0],
                                                             ' or '.join(types)))
         return wanted_topic, topics[wanted_topic][0]
-    found = [(count, topic, msgtype) for topic, (msgtype, count) in topics.items() if msgtype in types]
+    found = [(count, topic, msgtype) for topic, (msgtype, count) in topics.items() if msgtype in types and count]
     if not found:
         return None, None
     if what == 'motion':   # the commanded speed (cmd_vel) before a measured one
