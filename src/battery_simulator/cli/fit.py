@@ -16,7 +16,7 @@ import time
 
 from battery_simulator.core.fit import FitError
 from battery_simulator.core.fit.config_writer import config_text, write_config
-from battery_simulator.core.fit.conventions import prepare
+from battery_simulator.core.fit.conventions import prepare, split_at_gaps
 from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
 from battery_simulator.core.fit.log_reader import read_log
 from battery_simulator.core.fit.report import figures, report_text, write_profile
@@ -27,6 +27,8 @@ DEFAULT_CHEMISTRY = 'lg_hg2_cell'
 #: --chemistry's short names
 CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell'}
 BAR_WIDTH = 30
+#: a fit worse than this (per cell, on the fitted part) is refused: the logs are not what the model is
+MAX_RMSE_PER_CELL_V = 0.2
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -112,13 +114,16 @@ def run(args, stdout=None, stderr=None):
     logs = []
     for index, path in enumerate(args.logs):
         bar(0.0, 'reading %s' % os.path.basename(path))
-        logs.append(prepare(read_log(path, args.battery_topic, args.motion_topic), chemistry.cmd_vel_timeout_s))
+        logs.extend(split_at_gaps(prepare(read_log(path, args.battery_topic, args.motion_topic),
+                                          chemistry.cmd_vel_timeout_s)))
     result = fit(logs, chemistry, args.chemistry, cells_series=args.cells_series, holdout=args.holdout,
                  progress=lambda fraction, text: bar(0.05 + 0.85 * fraction, text))
     bar(0.92, 'replaying the logs through the model')
     numbers = figures(result)
-    if not all(math.isfinite(v) for v in (numbers.fit_rmse_v,)):
-        raise FitError('the fitted model does not reproduce the logs (RMSE not finite): no config written')
+    per_cell_v = numbers.fit_rmse_v / result.params.cells_series
+    if not per_cell_v <= MAX_RMSE_PER_CELL_V:   # also NaN
+        raise FitError('the fitted model does not reproduce the logs (RMSE %.0f mV per cell on the fitted part): '
+                       'are they one battery\'s, with its current? (no config written)' % (1000.0 * per_cell_v))
     command = ' '.join([PROG] + [a for a in sys.argv[1:]]) if sys.argv else PROG
     text = config_text(result, command)
     profiles = None

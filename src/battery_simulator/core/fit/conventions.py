@@ -4,7 +4,7 @@ sensor_msgs/BatteryState says: current positive while charging, percentage 0..1,
 measured. Gazebo's battery plugin and some drivers report discharge as positive current, some percentage
 as 0..100; bags hold duplicated and out-of-order stamps. Each is detected and said in ``notes``.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -13,6 +13,8 @@ from battery_simulator.core.fit import FitError
 #: fewer battery samples than this, or a shorter span, is too little to fit anything
 MIN_SAMPLES = 20
 MIN_SPAN_S = 60.0
+#: a pause in the samples longer than this (and than GAP_FACTOR sampling periods) splits a log in two
+GAP_S, GAP_FACTOR = 600.0, 20.0
 #: a current whose standard deviation is below this (after the sensor's noise) has no steps, A
 MIN_CURRENT_SPREAD_A = 0.02
 
@@ -91,6 +93,37 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if raw.motion_time_s is not None and len(raw.motion_time_s) > 0:
         _motion_at_samples(log, raw, t, cmd_vel_timeout_s)
     return log
+
+
+def split_at_gaps(log):
+    """The parts of ``log`` between pauses in its samples (a cycler's export, a bag recorded in pieces): what
+    happened in a pause is unknown, so each part starts from its own SOC. Parts too short are left out."""
+    dt = np.diff(log.time_s)
+    threshold = max(GAP_S, GAP_FACTOR * float(np.median(dt)))
+    cuts = [0] + [k + 1 for k in np.flatnonzero(dt > threshold)] + [len(log.time_s)]
+    if len(cuts) == 2:
+        return [log]
+    parts, dropped = [], 0
+    for number, (start, end) in enumerate(zip(cuts, cuts[1:]), start=1):
+        t = log.time_s[start:end]
+        if end - start < MIN_SAMPLES or t[-1] - t[0] < MIN_SPAN_S or np.std(log.current_a[start:end]) < MIN_CURRENT_SPREAD_A:
+            dropped += 1
+            continue
+        part = replace(log, name='%s#%d' % (log.name, number), time_s=t - t[0],
+                       notes=list(log.notes) + ['part %d of %d between pauses of more than %.0f s (from %.0f s)'
+                                                % (number, len(cuts) - 1, threshold, t[0])])
+        for name in ('voltage_v', 'current_a', 'temperature_c', 'percentage', 'speed_mean', 'turn_mean',
+                     'speed_now', 'turn_now'):
+            value = getattr(log, name)
+            if value is not None:
+                setattr(part, name, value[start:end])
+        parts.append(part)
+    if not parts:
+        raise FitError('%s: every part between its pauses (> %.0f s) is too short or at constant current'
+                       % (log.name, threshold))
+    if dropped:
+        parts[0].notes.append('%d part(s) between pauses too short or at constant current: left out' % dropped)
+    return parts
 
 
 def current_is_inverted(t, v, i):

@@ -494,8 +494,13 @@ def _fit_loads(logs, masks, cells_series, chemistry_params, fitted, kept):
 
 
 def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted, kept):
+    """The charger from every charge in the logs (held-out parts too: the replayed voltage takes the logged
+    current, so the charger's values do not enter the held-out figure)."""
     p = chemistry_params
-    charging = [log.current_a[mask & (log.current_a > 0.05)] for log, mask in zip(logs, masks)]
+    masks = [np.ones(len(log.time_s), dtype=bool) for log in logs]
+    # a charge: more than C/40 (a sensor's noise at rest is not one)
+    threshold = max(0.05, changes['cell_capacity_ah'] * cells_parallel / 40.0)
+    charging = [log.current_a[mask & (log.current_a > threshold)] for log, mask in zip(logs, masks)]
     currents = np.concatenate(charging)
     result = {}
     if len(currents) < 10:
@@ -508,7 +513,7 @@ def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, ch
     fitted['charge_current_a'] = Fitted(result['charge_current_a'], 'the charge\'s constant current (90th '
                                         'percentile of %d charging samples)' % len(currents),
                                         float(np.std(currents[currents > 0.8 * current])))
-    top = max(float(np.max(log.voltage_v[mask & (log.current_a > 0.05)]) if (mask & (log.current_a > 0.05)).any()
+    top = max(float(np.max(log.voltage_v[mask & (log.current_a > threshold)]) if (mask & (log.current_a > threshold)).any()
                     else 0.0) for log, mask in zip(logs, masks)) / cells_series
     tapering = np.concatenate([c[c < 0.7 * current] for c in charging])
     if len(tapering) >= 5 and top > 0:
