@@ -499,6 +499,25 @@ def fill_fields(msg, fields):
     return msg
 
 
+def published_battery_fields(record):
+    """battery_status's sensor_msgs/BatteryState fields for ``record``: its battery_fields() in the config's
+    ``conventions`` (a driver that inverts the current's sign, as Gazebo's invert_current_sign does, or
+    publishes 0-100 percentages), for testing a consumer's robustness. The front ends publish these on
+    battery_status; everything else (battery_simulator/state, diagnostics, feedback, low/critical) keeps
+    the package's conventions. The record's own dict is not changed."""
+    fields = record.battery_fields()
+    conventions = record.params.conventions
+    if not conventions:
+        return fields
+    fields = dict(fields)
+    if conventions.get('invert_current_sign', False):
+        fields['current'] = 0.0 - fields['current']   # 0.0 stays 0.0, not -0.0
+    scale = conventions.get('percentage_scale', 1)
+    if scale != 1:
+        fields['percentage'] = fields['percentage'] * scale
+    return fields
+
+
 def noisy_voltage(voltage_v, noise_v):
     """A noisy voltage reading: never <= 0 or beyond twice the true value (sigma is bounded by the config)."""
     return min(max(voltage_v + noise_v, 0.5 * voltage_v), 2.0 * voltage_v)
