@@ -616,7 +616,12 @@ class BatteryModel:
         return cell_demand
 
     def _clear_protection(self, demand):
-        """A BMS reconnects once an over-current or power demand is gone, or the pack has cooled."""
+        """A BMS reconnects once an over-current or power demand is gone, or the pack has cooled; a charger
+        connected after an under-voltage cut-off charges (as connecting it in CHARGE mode does)."""
+        if self.cut_off is CutOff.UNDER_VOLTAGE and demand > 0.0:
+            self.cut_off = None
+            self.status = Status.NOT_CHARGING   # the charge step makes it CHARGING
+            return
         if self.cut_off not in _SELF_CLEARING:
             return
         cell_demand = demand / self.params.cells_parallel
@@ -717,8 +722,21 @@ class BatteryModel:
 
     @property
     def current_a(self):
-        """Pack current, A: positive charging, negative discharging."""
+        """Pack current, A: positive charging, negative discharging; a full pack held full on the dock
+        shows the current the charger tops it up with (held_full_current_a)."""
+        if self.status is Status.FULL and self.mode is Mode.CHARGE and self.params.charger_holds_full:
+            return self.held_full_current_a
         return self.cell_current_a * self.params.cells_parallel
+
+    @property
+    def held_full_current_a(self):
+        """What the charger delivers to hold a full pack full on the dock (charger_holds_full), A: the
+        robot's own load (base load, payloads, motion) at the pack's voltage, replaced as it is drawn, so
+        the cells' charge stays where it is (charge is conserved: the load takes what the charger gives)."""
+        p = self.params
+        power_w = p.load_power_w + self._extra_power_w
+        voltage_v = self.voltage_v
+        return p.load_current_a + self._extra_current_a + (power_w / voltage_v if voltage_v > 0.0 else 0.0)
 
     @property
     def extra_power_w(self):

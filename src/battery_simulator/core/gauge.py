@@ -14,6 +14,13 @@ low/critical, the dashboard and predict show the gauge.
 """
 
 
+#: a gauge that recalibrates at full counts up to this and no further: it shows 100 % when the charge
+#: terminates (on_full), not while the charge current still flows because its count got there first (a
+#: gauge ahead of the truth, or believing too little capacity). TI's Impedance Track gauges do the same:
+#: RelativeStateOfCharge is held at 99 % until they detect the taper's end (the FC flag).
+HOLD_BEFORE_FULL = 0.99
+
+
 class CoulombCounter:
     """A coulomb-counting gauge (the config's ``gauge: {model: coulomb_counter, ...}``)."""
 
@@ -32,9 +39,12 @@ class CoulombCounter:
         self.soc = soc
 
     def count(self, charge_as, dt_s):
-        """The pack took ``charge_as`` (A*s, positive charging) over ``dt_s``: count what the sensor saw."""
+        """The pack took ``charge_as`` (A*s, positive charging) over ``dt_s``: count what the sensor saw.
+        A gauge that recalibrates at full counts up to HOLD_BEFORE_FULL only: 100 % is the charge's end."""
         measured = charge_as * (1.0 + self.current_gain_error) + self.current_offset_a * dt_s
         soc = self.soc + measured / self.capacity_as
+        if measured > 0.0 and self.recalibrate_at_full and soc > HOLD_BEFORE_FULL:
+            soc = max(self.soc, HOLD_BEFORE_FULL)   # never up past it by counting (nor down by the hold)
         self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
     def on_full(self):

@@ -161,6 +161,17 @@ class BatteryParameters:
     #: current_offset_a, current_gain_error, capacity_error, initial_error, recalibrate_at_full,
     #: recalibrate_at_empty}
     gauge: dict = None
+    #: a full pack on the dock is held full (Part 7): once the charge has ended the connected charger tops
+    #: up what the robot's own load draws (load_current_a, load_power_w, payloads, motion) as it draws it,
+    #: so the pack stays at 100 % and battery_status shows that current as charge (status FULL), as docks
+    #: that power the robot through its pack do (opennav_docking's SimpleChargingDock calls > 0.5 A
+    #: charging). false: the charger switches off at Full and a full pack on the dock shows 0 A
+    charger_holds_full: bool = True
+    #: how a driver's BatteryState reads, to test a consumer against drivers that invert conventions:
+    #: None or {invert_current_sign: false, percentage_scale: 1}; true / 100 give Gazebo's
+    #: invert_current_sign and 0-100 percentages on battery_status (the model and battery_simulator/state
+    #: keep the package's own conventions)
+    conventions: dict = None
 
     def __post_init__(self):
         validate(self)
@@ -291,6 +302,7 @@ def validate(params):
     _validate_currents(params)
     _validate_pack(params)
     _validate_gauge(params)
+    _validate_conventions(params)
 
 
 GROUP_KEYS = ('capacity_factor', 'resistance_factor', 'initial_soc_offset')
@@ -298,6 +310,8 @@ BALANCING_KEYS = ('current_a', 'start_voltage_v', 'threshold_v')
 GAUGE_KEYS = ('model', 'current_offset_a', 'current_gain_error', 'capacity_error', 'initial_error',
               'recalibrate_at_full', 'recalibrate_at_empty')
 GAUGE_MODELS = ('ideal', 'coulomb_counter')
+#: conventions: each key with its default and the values allowed
+CONVENTION_KEYS = {'invert_current_sign': (False, (False, True)), 'percentage_scale': (1, (1, 100))}
 
 
 def _validate_pack(params):
@@ -356,6 +370,21 @@ def _validate_gauge(params):
             _fail('gauge.%s' % key, gauge[key], 'true or false')
     if gauge['model'] == 'ideal' and set(gauge) != {'model'}:
         _fail('gauge', gauge, 'only {model: ideal} for an ideal gauge (its errors belong to coulomb_counter)')
+
+
+def _validate_conventions(params):
+    if not isinstance(params.charger_holds_full, bool):
+        _fail('charger_holds_full', params.charger_holds_full, 'true or false')
+    conventions = params.conventions
+    if conventions is None:
+        return
+    if not isinstance(conventions, dict) or set(conventions) - set(CONVENTION_KEYS):
+        _fail('conventions', conventions, 'a mapping of %s' % ', '.join(CONVENTION_KEYS))
+    for key, (_, allowed) in CONVENTION_KEYS.items():
+        value = conventions.get(key, CONVENTION_KEYS[key][0])
+        if not any(value == a and type(value) is type(a) for a in allowed) \
+                and not (key == 'percentage_scale' and isinstance(value, float) and value in allowed):
+            _fail('conventions.%s' % key, value, ' or '.join(str(a).lower() for a in allowed))
 
 
 def _validate_currents(params):
