@@ -129,7 +129,6 @@ def test_simple_charging_dock_on_battery_state_without_a_remap(probe):
         process.stop()
 
 
-@pytest.mark.xfail(strict=True, reason='needs a full pack held full on the dock (Part 7)')
 def test_simple_charging_dock_with_a_full_pack(sim, probe):
     dock = Reader(probe, 'full_pack_docking_server', NS + '/battery_status',
                   lambda msg: msg.current > CHARGING_THRESHOLD_A, QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))

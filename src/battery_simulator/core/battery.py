@@ -141,6 +141,8 @@ class BatteryRecord:
             sensor_dropout=self.sensor_dropout,
             true_percentage=s.true_percentage,
             imbalance_warn_v=self.params.imbalance_warn_v,
+            invert_current_sign=bool((self.params.conventions or {}).get('invert_current_sign', False)),
+            percentage_scale=float((self.params.conventions or {}).get('percentage_scale', 1)),
         )
 
 
