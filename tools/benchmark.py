@@ -20,7 +20,8 @@ if importlib.util.find_spec('battery_simulator') is None:   # not sourced: the c
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from battery_simulator.core.battery_model import BatteryModel, Mode  # noqa: E402
+from battery_simulator.core.battery_model import Mode  # noqa: E402
+from battery_simulator.core.pack import make_model  # noqa: E402
 from battery_simulator.core.parameters import preset  # noqa: E402
 from battery_simulator.core.replay import replay  # noqa: E402
 
@@ -32,7 +33,7 @@ def per_step_us(mode, soc, preset_name='lg_hg2_3s1p', steps=STEPS, **step_args):
     """Median microseconds per step over REPEATS runs of ``steps`` steps."""
     runs = []
     for _ in range(REPEATS):
-        model = BatteryModel(preset(preset_name), state_of_charge=soc, mode=mode)
+        model = make_model(preset(preset_name), state_of_charge=soc, mode=mode)
         model.set_extra_load('motion', current_a=0.0)
         step = model.step
         start = time.perf_counter()

@@ -7,7 +7,8 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'src'))
 
-from battery_simulator.core.battery_model import BatteryModel, Mode  # noqa: E402
+from battery_simulator.core.battery_model import Mode  # noqa: E402
+from battery_simulator.core.pack import make_model  # noqa: E402
 from battery_simulator.core.parameters import preset  # noqa: E402
 
 FIGURES = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'data', 'lumped_model_figures.json')
@@ -21,7 +22,7 @@ def scenario(name):
         'power_kobuki': ('kobuki_4s2p', 0.9, Mode.IDLE, [(5.0, {'power_w': -40.0})] * 600
                          + [(5.0, {'current_a': 2.0})] * 300),
     }[name]
-    model = BatteryModel(preset(preset_name), state_of_charge=soc, mode=mode)
+    model = make_model(preset(preset_name), state_of_charge=soc, mode=mode)
     rows, t = [], 0.0
     for dt_s, load in steps:
         model.step(dt_s, **load)

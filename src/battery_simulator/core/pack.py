@@ -22,28 +22,48 @@ can give plus what it can still take,
 
 (1 when the highest group is full, 0 when the lowest is empty, the plain SOC
 when the groups are alike).
+
+The charge ends as the lumped model's does: when the string's current tapers to
+the termination current, the limiting group is called full (the lumped model's
+step to 100 % at the taper's end), and every other group moves by the same
+charge, as the string carries one current: the groups keep their differences,
+so a pack of alike groups cycles exactly as the lumped one, and no group gains
+charge the others did not.
+
+``make_model(params, ...)`` builds the model of a config: this pack when the
+config has a spread, groups or balancing, else the lumped BatteryModel.
 """
 import math
 import random
 from dataclasses import replace
 
 from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.parameters import SPREAD_SIGMAS
 
 
 #: a group this far below its charge voltage is in its CC phase: the string's charge is not tried per group
 CV_MARGIN_V = 0.15
 
 
+def make_model(params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
+    """The model of ``params``: a GroupedPack when the config has a spread, groups or balancing (Part 5),
+    else the lumped BatteryModel (None: the default parameters)."""
+    if params is not None and params.has_groups:
+        return GroupedPack(params, state_of_charge, mode)
+    return BatteryModel(params, state_of_charge, mode)
+
+
 def group_factors(params):
     """[(capacity factor, resistance factor, initial SOC offset)] of the series groups: the config's
-    ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma)."""
+    ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma:
+    parameters.py keeps the spreads below 1/3, so every factor is > 0)."""
     if params.groups:
         return [(float(g.get('capacity_factor', 1.0)), float(g.get('resistance_factor', 1.0)),
                  float(g.get('initial_soc_offset', 0.0))) for g in params.groups]
     draw = random.Random(params.spread_seed)
 
     def factor(spread):
-        return 1.0 + spread * max(-3.0, min(3.0, draw.gauss(0.0, 1.0)))
+        return 1.0 + spread * max(-SPREAD_SIGMAS, min(SPREAD_SIGMAS, draw.gauss(0.0, 1.0)))
     return [(factor(params.capacity_spread), factor(params.resistance_spread), 0.0)
             for _ in range(params.cells_series)]
 
@@ -60,13 +80,14 @@ def group_params(params, capacity_factor, resistance_factor):
 
 
 class GroupedPack(BatteryModel):
-    """A pack of ``cells_series`` differing groups (BatteryModel returns one for such a config)."""
+    """A pack of ``cells_series`` differing groups (make_model returns one for such a config)."""
 
     def __init__(self, params, state_of_charge=1.0, mode=Mode.DISCHARGE):
         self.groups = [BatteryModel(group_params(params, capacity, resistance),
                                     state_of_charge=min(1.0, max(0.0, state_of_charge + offset)), mode=mode)
                        for capacity, resistance, offset in group_factors(params)]
         self.bleeding = [False] * len(self.groups)   # which groups balancing bleeds now
+        self._tried = None   # this step's trial of each group at the string's current (_string_charge_current)
         self._voltages = [0.0] * len(self.groups)    # the groups' voltages as the charge step began
         super().__init__(params, state_of_charge, mode)
         self._sync()
@@ -165,6 +186,7 @@ class GroupedPack(BatteryModel):
         p = self.params
         groups = self.groups
         cell_demand = demand / p.cells_parallel
+        self._tried = None
         if cell_demand > 0.0:
             current = self._string_charge_current(dt_s, demand)
         elif cell_demand < 0.0:
@@ -177,23 +199,34 @@ class GroupedPack(BatteryModel):
         status = Status.CHARGING if current > 0.0 else Status.DISCHARGING
         if current > 0.0 and self.params.balancing:
             bleeds = self._bleeds(current)
-            for group, bleed in zip(groups, bleeds):
-                group.status = status
-                group._advance(dt_s, current - bleed)
+            for index, (group, bleed) in enumerate(zip(groups, bleeds)):
+                self._advance_group(index, dt_s, current - bleed, status)
                 if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
                     self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
             self.bleeding = [bool(b) for b in bleeds]
         else:
-            for group in groups:
-                group.status = status
-                group._advance(dt_s, current)
+            for index in range(len(groups)):
+                self._advance_group(index, dt_s, current, status)
             if any(self.bleeding):
                 self.bleeding = [False] * len(groups)
+        self._tried = None
         self.throughput_as += current / p.cells_parallel * dt_s
         self._sync()
         self.cell_current_a = current / p.cells_parallel
         if current > 0.0:
             self.status = Status.CHARGING
+
+    def _advance_group(self, index, dt_s, current, status):
+        """Group ``index`` over ``dt_s`` at ``current``: its trial's end if it was tried at that very
+        current (the limiting group: the step the lumped model takes, and one step the less), else a step."""
+        group = self.groups[index]
+        tried = self._tried[index] if self._tried is not None else None
+        if tried is not None and tried[0] == current:
+            group._restore(tried[1])
+            group.cell_current_a = current / self.params.cells_parallel
+            return
+        group.status = status
+        group._advance(dt_s, current)
 
     def _string_charge_current(self, dt_s, demand):
         """The charge current the highest group allows (CC-CV of every group; the least wins), or 0 and
@@ -209,22 +242,31 @@ class GroupedPack(BatteryModel):
         self._voltages = voltages = [g.cell_voltage_v for g in self.groups]   # _bleeds reads them too
         if max(voltages) < p.cell_charge_voltage_v - CV_MARGIN_V:
             return demand   # the CC phase: far from every group's charge voltage
-        allowed = []
+        allowed, tried = [], []
         for group in self.groups:   # each group's CC-CV current for this step, tried and undone
             saved = group._state()
             group.status = Status.CHARGING
             group._advance(dt_s, demand)
-            allowed.append(group.cell_current_a * p.cells_parallel if group.status is Status.CHARGING else 0.0)
+            current = group.cell_current_a * p.cells_parallel if group.status is Status.CHARGING else 0.0
+            allowed.append(current)
+            tried.append((current, group._state()))   # its end, if the string takes that current
             group._restore(saved)
         current = min(allowed)
+        self._tried = tried
         if current < demand and current <= p.pack_termination_current_a:
-            limiting = self.groups[allowed.index(current)]
-            limiting._become_full()   # the highest group is full: the charge ends, the others short of it
-            for group in self.groups:
-                group.cell_current_a = 0.0
-            self.status = Status.FULL
+            self._end_charge(self.groups[allowed.index(current)])
             return 0.0
         return current
+
+    def _end_charge(self, limiting):
+        """The taper has ended at ``limiting``: it is full (the lumped model's step to 100 % at the taper's
+        end), and that step's charge goes through every other group too (one string, one current), so
+        the groups keep their differences and no charge appears in one group alone."""
+        top_up_as = (1.0 - limiting.state_of_charge) * limiting._capacity_as   # per cell
+        for group in self.groups:
+            soc = group.state_of_charge + top_up_as / group._capacity_as
+            group._become_full(1.0 if group is limiting or soc > 1.0 - 1e-12 else soc)
+        self.status = Status.FULL
 
     def _bleeds(self, current):
         """The bleed current of each group now (passive balancing while charging), A."""
@@ -245,9 +287,15 @@ class GroupedPack(BatteryModel):
         group.temperature_c += rise * (1.0 - math.exp(-dt_s * p.cell_heat_transfer_w_per_k
                                                       / p.cell_heat_capacity_j_per_k))
 
-    def _become_full(self):   # only the groups end a charge (_string_charge_current)
+    def _become_full(self, state_of_charge=1.0):   # only the groups end a charge (_end_charge)
         self.status = Status.FULL
         self.cell_current_a = 0.0
+
+    def _disconnect(self, cut_off, status):
+        """As the lumped pack's: no current flows, in any group (their voltages relaxed from this step on)."""
+        for group in self.groups:
+            group.cell_current_a = 0.0
+        super()._disconnect(cut_off, status)
 
     # -- inputs -------------------------------------------------------------------------------
 
