@@ -444,8 +444,9 @@ class BatteryModel:
         self._restore(start)
         self._advance(high, demand)
 
-    def _advance(self, dt_s, demand):
-        """The exact update for ``demand`` A per pack held over ``dt_s``."""
+    def _advance(self, dt_s, demand, limit_a=None):
+        """The exact update for ``demand`` A per pack held over ``dt_s``; a charge current of at most
+        ``limit_a`` per cell if given (a group in a string: the string's current)."""
         p = self.params
         cell_demand = demand / p.cells_parallel
         resistance_scale = self._resistance_scale()
@@ -484,6 +485,8 @@ class BatteryModel:
 
         if cell_demand > 0.0:
             current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0)
+            if limit_a is not None and current > limit_a:
+                current = limit_a
         elif cell_demand < 0.0:
             current = self._discharge_current(cell_demand)
         else:

@@ -87,7 +87,6 @@ class GroupedPack(BatteryModel):
                                     state_of_charge=min(1.0, max(0.0, state_of_charge + offset)), mode=mode)
                        for capacity, resistance, offset in group_factors(params)]
         self.bleeding = [False] * len(self.groups)   # which groups balancing bleeds now
-        self._tried = None   # this step's trial of each group at the string's current (_string_charge_current)
         self._voltages = [0.0] * len(self.groups)    # the groups' voltages as the charge step began
         super().__init__(params, state_of_charge, mode)
         self._sync()
@@ -186,52 +185,38 @@ class GroupedPack(BatteryModel):
         p = self.params
         groups = self.groups
         cell_demand = demand / p.cells_parallel
-        self._tried = None
         if cell_demand > 0.0:
-            current = self._string_charge_current(dt_s, demand)
+            current = self._charge_groups(dt_s, demand)   # the groups charged, if it is > 0
         elif cell_demand < 0.0:
             current = self._discharge_current(cell_demand) * p.cells_parallel
         else:
             current = 0.0
             if self.status not in (Status.FULL, Status.EMPTY):
                 self.status = Status.NOT_CHARGING
-        # the groups follow the string (their own cut-off and charger fault never act: the pack's do)
-        status = Status.CHARGING if current > 0.0 else Status.DISCHARGING
-        if current > 0.0 and self.params.balancing:
-            bleeds = self._bleeds(current)
-            for index, (group, bleed) in enumerate(zip(groups, bleeds)):
-                self._advance_group(index, dt_s, current - bleed, status)
-                if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
-                    self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
-            self.bleeding = [bool(b) for b in bleeds]
-        else:
-            for index in range(len(groups)):
-                self._advance_group(index, dt_s, current, status)
+        if not current > 0.0:
+            # the groups follow the string (their own cut-off and charger fault never act: the pack's do)
+            for group in groups:
+                group.status = Status.DISCHARGING
+                group._advance(dt_s, current)
             if any(self.bleeding):
                 self.bleeding = [False] * len(groups)
-        self._tried = None
         self.throughput_as += current / p.cells_parallel * dt_s
         self._sync()
         self.cell_current_a = current / p.cells_parallel
         if current > 0.0:
             self.status = Status.CHARGING
 
-    def _advance_group(self, index, dt_s, current, status):
-        """Group ``index`` over ``dt_s`` at ``current``: its trial's end if it was tried at that very
-        current (the limiting group: the step the lumped model takes, and one step the less), else a step."""
-        group = self.groups[index]
-        tried = self._tried[index] if self._tried is not None else None
-        if tried is not None and tried[0] == current:
-            group._restore(tried[1])
-            group.cell_current_a = current / self.params.cells_parallel
-            return
-        group.status = status
-        group._advance(dt_s, current)
+    def _charge_groups(self, dt_s, demand):
+        """Charge every group over ``dt_s`` at the current the most limiting group's CC-CV allows (the
+        least of theirs: the highest group is held at its charge voltage), less a bleed where balancing
+        acts; return it. 0 (nothing stepped) when no charge flows, and FULL at the taper's end.
 
-    def _string_charge_current(self, dt_s, demand):
-        """The charge current the highest group allows (CC-CV of every group; the least wins), or 0 and
-        FULL at the taper's end. In the CC phase every group takes the demand: the groups are tried
-        (and their steps undone) only once one of them is near its charge voltage."""
+        Each group's current is computed once, in its own step: far from the charge voltage (CC) every
+        group takes the demand; near it the highest group is tried (its step kept) and the others step
+        at its current, capped by their own CC-CV. Only when one of them allows less (it limits, not
+        the highest) are they all tried and stepped again. A group steps with the string's demand as
+        the lumped model does (its resistances along that current), its current capped at the string's:
+        alike groups take the lumped model's very step."""
         if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
             self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
             return 0.0
@@ -239,24 +224,75 @@ class GroupedPack(BatteryModel):
         if demand / p.cells_parallel > p.cell_max_charge_current_a:
             self._disconnect(CutOff.OVER_CURRENT, Status.NOT_CHARGING)
             return 0.0
-        self._voltages = voltages = [g.cell_voltage_v for g in self.groups]   # _bleeds reads them too
-        if max(voltages) < p.cell_charge_voltage_v - CV_MARGIN_V:
-            return demand   # the CC phase: far from every group's charge voltage
-        allowed, tried = [], []
-        for group in self.groups:   # each group's CC-CV current for this step, tried and undone
-            saved = group._state()
-            group.status = Status.CHARGING
-            group._advance(dt_s, demand)
-            current = group.cell_current_a * p.cells_parallel if group.status is Status.CHARGING else 0.0
-            allowed.append(current)
-            tried.append((current, group._state()))   # its end, if the string takes that current
-            group._restore(saved)
-        current = min(allowed)
-        self._tried = tried
+        groups = self.groups
+        self._voltages = voltages = [g.cell_voltage_v for g in groups]   # _bleeds reads them too
+        highest = max(voltages)
+        if highest < p.cell_charge_voltage_v - CV_MARGIN_V:
+            return demand if self._charge_at(dt_s, demand, demand, {}) else self._charge_tried(dt_s, demand)
+        first = voltages.index(highest)
+        tried = {first: self._try(first, dt_s, demand)}
+        current = tried[first][0]
         if current < demand and current <= p.pack_termination_current_a:
+            self._end_charge(groups[first])
+            return 0.0
+        if current > 0.0 and self._charge_at(dt_s, demand, current, tried):
+            return current
+        return self._charge_tried(dt_s, demand)
+
+    def _try(self, index, dt_s, demand):
+        """(the pack current group ``index``'s CC-CV allows over ``dt_s`` at ``demand``, its state after
+        that step); the group is left as it was."""
+        group = self.groups[index]
+        saved = group._state()
+        group.status = Status.CHARGING
+        group._advance(dt_s, demand)
+        allowed = group.cell_current_a * self.params.cells_parallel if group.status is Status.CHARGING else 0.0
+        tried = (allowed, group._state())
+        group._restore(saved)
+        return tried
+
+    def _charge_tried(self, dt_s, demand):
+        """Every group tried at ``demand``: the least current wins (0 and FULL at the taper's end)."""
+        tried = {index: self._try(index, dt_s, demand) for index in range(len(self.groups))}
+        allowed = [tried[index][0] for index in range(len(self.groups))]
+        current = min(allowed)
+        if current < demand and current <= self.params.pack_termination_current_a:
             self._end_charge(self.groups[allowed.index(current)])
             return 0.0
+        if current <= 0.0:
+            return 0.0
+        self._charge_at(dt_s, demand, current, tried, check=False)
         return current
+
+    def _charge_at(self, dt_s, demand, current, tried, check=True):
+        """Step every group at the string's ``current`` (less its bleed): a tried group at that very
+        current keeps its tried step. With ``check``, False (every group as it was) as soon as a group's
+        own CC-CV allows less: it, not the string, limits."""
+        p = self.params
+        groups = self.groups
+        bleeds = self._bleeds(current) if p.balancing else None
+        starts = [g._state() for g in groups] if check else None
+        for index, group in enumerate(groups):
+            bleed = bleeds[index] if bleeds else 0.0
+            limit = (current - bleed) / p.cells_parallel
+            done = tried.get(index)
+            if done is not None and done[0] == current and not bleed:
+                group._restore(done[1])
+                group.cell_current_a = limit
+                continue
+            group.status = Status.CHARGING
+            group._advance(dt_s, demand, limit)
+            if check and (group.status is not Status.CHARGING or group.cell_current_a < limit * (1.0 - 1e-12)):
+                for each, start in zip(groups, starts):
+                    each._restore(start)
+                return False
+            if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
+                self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
+        if bleeds:
+            self.bleeding = [bool(b) for b in bleeds]
+        elif any(self.bleeding):
+            self.bleeding = [False] * len(groups)
+        return True
 
     def _end_charge(self, limiting):
         """The taper has ended at ``limiting``: it is full (the lumped model's step to 100 % at the taper's
@@ -273,7 +309,7 @@ class GroupedPack(BatteryModel):
         balancing = self.params.balancing
         if not balancing or current <= 0.0:
             return [0.0] * len(self.groups)
-        voltages = self._voltages   # as the step began (_string_charge_current)
+        voltages = self._voltages   # as the step began (_charge_groups)
         if max(voltages) < balancing['start_voltage_v']:
             return [0.0] * len(self.groups)
         lowest = min(voltages)
