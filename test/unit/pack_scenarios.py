@@ -8,7 +8,8 @@ from dataclasses import replace
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'src'))
 
-from battery_simulator.core.battery_model import BatteryModel, Mode  # noqa: E402
+from battery_simulator.core.battery_model import Mode  # noqa: E402
+from battery_simulator.core.pack import make_model  # noqa: E402
 from battery_simulator.core.parameters import preset  # noqa: E402
 
 FIGURES = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'data', 'lumped_model_figures.json')
@@ -23,7 +24,7 @@ def scenario(name):
                          + [(5.0, {'current_a': 2.0})] * 300),
     }[name]
     # saved before the held-full charger (Part 7), which changes only the current shown at Full on the dock
-    model = BatteryModel(replace(preset(preset_name), charger_holds_full=False), state_of_charge=soc, mode=mode)
+    model = make_model(replace(preset(preset_name), charger_holds_full=False), state_of_charge=soc, mode=mode)
     rows, t = [], 0.0
     for dt_s, load in steps:
         model.step(dt_s, **load)

@@ -6,7 +6,8 @@ current still flows (before: 100 % about 760 s before Full, at 0.57 A, four time
 """
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, Mode, Status
+from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.pack import make_model
 from battery_simulator.core.gauge import HOLD_BEFORE_FULL
 from battery_simulator.core.parameters import default_config_path, load_yaml
 
@@ -40,7 +41,7 @@ def cycle(model):
 @pytest.fixture(scope='module')
 def cycles():
     params = load_yaml(REALISTIC)
-    model = BatteryModel(params, state_of_charge=0.9, mode=Mode.DISCHARGE)
+    model = make_model(params, state_of_charge=0.9, mode=Mode.DISCHARGE)
     return model, [cycle(model) for _ in range(4)]
 
 
@@ -65,4 +66,5 @@ def test_a_gauge_believing_more_capacity_than_the_pack_has_docks_with_less_in_it
         given_ah = (counted_ah + gauge.current_offset_a * patrol_s / 3600.0) / (1.0 + gauge.current_gain_error)
         expected = 100.0 - 100.0 * given_ah / model.capacity_ah
         assert docked.true_percentage == pytest.approx(expected, abs=1.0), (index, docked.true_percentage, expected)
-        assert docked.true_percentage < docked.percentage - 5.0, ('reads high', index, docked)
+        # capacity_error 6 % of the true capacity: 75 points counted are about 80 of the truth's (reads high by 4-5)
+        assert docked.true_percentage < docked.percentage - 3.0, ('reads high', index, docked)

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import preset, preset_names
 from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, main, read_profile, replay
 
@@ -264,7 +265,7 @@ def test_a_closed_pipe_sends_the_rest_to_devnull(tmp_path, monkeypatch):
 def stepped_by_hand(params, segments, step_s, state_of_charge=1.0, whole=()):
     """The voltages replay() should give: each (duration, kind, value) held in steps of at most step_s
     (the segments numbered in ``whole`` in one step)."""
-    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    model = make_model(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
     rows = []
     for number, (duration, kind, value) in enumerate(segments):
         steps = 1 if number in whole else max(1, int(math.ceil(duration / step_s)))

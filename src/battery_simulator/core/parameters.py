@@ -147,7 +147,7 @@ class BatteryParameters:
     #: where the numbers come from
     source: str = ''
     #: a pack of differing cells (Part 5): relative standard deviation of the series groups' capacity and
-    #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model)
+    #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model); below MAX_SPREAD
     capacity_spread: float = 0.0
     resistance_spread: float = 0.0
     spread_seed: int = 0
@@ -158,7 +158,7 @@ class BatteryParameters:
     #: the diagnostics warn when the cell voltages differ by more than this, V
     imbalance_warn_v: float = 0.05
     #: the fuel gauge: None or {model: ideal} (the percentage is the truth) or {model: coulomb_counter,
-    #: current_offset_a, current_gain_error, capacity_error, initial_error, recalibrate_at_full,
+    #: current_offset_a, current_gain_error, capacity_error, initial_error, deadband_a, recalibrate_at_full,
     #: recalibrate_at_empty}
     gauge: dict = None
     #: a full pack on the dock is held full (Part 7): once the charge has ended the connected charger tops
@@ -308,7 +308,11 @@ def validate(params):
 GROUP_KEYS = ('capacity_factor', 'resistance_factor', 'initial_soc_offset')
 BALANCING_KEYS = ('current_a', 'start_voltage_v', 'threshold_v')
 GAUGE_KEYS = ('model', 'current_offset_a', 'current_gain_error', 'capacity_error', 'initial_error',
-              'recalibrate_at_full', 'recalibrate_at_empty')
+              'deadband_a', 'recalibrate_at_full', 'recalibrate_at_empty')
+#: the spreads are drawn from a normal law clipped to +-SPREAD_SIGMAS: below 1 / SPREAD_SIGMAS every drawn
+#: factor, 1 + spread x draw, stays > 0
+SPREAD_SIGMAS = 3.0
+MAX_SPREAD = 1.0 / SPREAD_SIGMAS
 GAUGE_MODELS = ('ideal', 'coulomb_counter')
 #: conventions: each key with its default and the values allowed
 CONVENTION_KEYS = {'invert_current_sign': (False, (False, True)), 'percentage_scale': (1, (1, 100))}
@@ -318,8 +322,9 @@ def _validate_pack(params):
     """The groups of a pack of differing cells, and its balancing."""
     for name in ('capacity_spread', 'resistance_spread'):
         value = getattr(params, name)
-        if not (is_number(value) and 0.0 <= value < 1.0):
-            _fail(name, value, 'a relative standard deviation in [0, 1)')
+        if not (is_number(value) and 0.0 <= value < MAX_SPREAD):
+            _fail(name, value, 'a relative standard deviation in [0, 1/%g) (its draws reach %g sigma: a larger '
+                  'one can draw a factor <= 0)' % (SPREAD_SIGMAS, SPREAD_SIGMAS))
     if not (isinstance(params.spread_seed, int) and not isinstance(params.spread_seed, bool)):
         _fail('spread_seed', params.spread_seed, 'a whole number')
     if not isinstance(params.groups, (tuple, list)):
@@ -362,7 +367,8 @@ def _validate_gauge(params):
         _fail('gauge', gauge, 'a mapping with model (%s) and %s' % (' or '.join(GAUGE_MODELS),
                                                                     ', '.join(GAUGE_KEYS[1:])))
     for key, low, high in (('current_offset_a', -100.0, 100.0), ('current_gain_error', -0.5, 0.5),
-                           ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0)):
+                           ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0),
+                           ('deadband_a', 0.0, 100.0)):
         if key in gauge and not (is_number(gauge[key]) and low <= gauge[key] <= high):
             _fail('gauge.%s' % key, gauge[key], 'a number in [%g, %g]' % (low, high))
     for key in ('recalibrate_at_full', 'recalibrate_at_empty'):
@@ -504,6 +510,10 @@ def from_mapping(values, base=None, origin='parameters'):
         if key in _TABLES and isinstance(value, list):
             value = tuple(number_from_text(v) for v in value)
         elif key == 'groups' and isinstance(value, list):
+            if not value:   # not a lumped pack said another way: a list that lost its groups
+                raise ParameterError('%s: parameter groups = [] is invalid: must be a list of {%s}, one per '
+                                     'series group (leave groups out for a lumped pack)'
+                                     % (origin, ', '.join(GROUP_KEYS)))
             value = tuple(value)
         elif key in _NUMBERS:
             value = number_from_text(value)
