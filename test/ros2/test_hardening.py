@@ -127,7 +127,7 @@ def test_a_file_that_is_not_a_state_file_is_never_written_over(tmp_path, executa
         code = process.wait(15.0)
         assert code not in (None, 0), 'a non-state file was accepted:\n' + process.output()
         lines = [line for line in process.output().splitlines() if 'state_file' in line]
-        assert len(lines) == 1 and 'not a state file' in lines[0], process.output()
+        assert len(lines) == 1 and 'is not a' in lines[0] and 'never written over' in lines[0], process.output()
     finally:
         stop_all(process)
     assert user_file.read_text() == 'robot: {wheels: 4}\n', 'the user\'s file was written over'
@@ -140,7 +140,8 @@ def test_an_unwritable_state_file_is_one_line_at_start(tmp_path, path):
     try:
         code = process.wait(15.0)
         assert code not in (None, 0), 'an unwritable state_file was accepted:\n' + process.output()
-        assert process.output().count('state_file') == 1 and 'Traceback' not in process.output(), process.output()
+        lines = [line for line in process.output().splitlines() if line.strip()]
+        assert len(lines) == 1 and 'state_file' in lines[0] and 'Traceback' not in process.output(), process.output()
     finally:
         stop_all(process)
 
@@ -218,7 +219,7 @@ def test_time_scale_has_an_upper_bound(sim, probe):
     assert not result.successful and 'time_scale' in result.reason, result
 
 
-@pytest.mark.parametrize('value,ok', [('1', True), ('true', True), ('0', True), ('yes', False), ('2', False)])
+@pytest.mark.parametrize('value,ok', [('1', True), ('true', True), ('0', True), ('maybe', False), ('2', False)])
 def test_charging_at_start(probe, value, ok):
     ns = '/start_charging_%s' % value
     process = NodeProcess('battery_sim', '-r', '__ns:=' + ns, '-p', 'charging:=' + value)
