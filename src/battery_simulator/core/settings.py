@@ -22,6 +22,12 @@ def _fraction(value):
     return is_number(value) and 0.0 <= value <= 1.0
 
 
+#: the largest time_scale: at the default 10 Hz one update then spans 1000 s of battery (a quarter of a
+#: discharge); beyond it a charge, a discharge or the pack's whole life would pass in a few updates, with
+#: no feedback, alarm or dock in between
+MAX_TIME_SCALE = 10000.0
+
+
 def _rate(value):
     return is_number(value) and 0 < value <= 1000
 
@@ -30,7 +36,9 @@ def _rate(value):
 BATTERY_SETTINGS = (
     Setting('config', str(default_config_path()), lambda v: isinstance(v, str) and v != '',
             'a path to a YAML file', 'battery config: a preset plus overrides (YAML)', False),
-    Setting('time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0',
+    Setting('time_scale', 22.0, lambda v: is_number(v) and 0 < v <= MAX_TIME_SCALE,
+            'a number in (0, %g] (one update of a faster battery would span more than a quarter of a discharge)'
+            % MAX_TIME_SCALE,
             'simulated seconds per wall second (ignored under use_sim_time)', True),
     Setting('update_rate', 10.0, _rate, 'a number in (0, 1000] Hz', 'model updates per second', False),
     Setting('initial_percentage', 100.0, lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]',
@@ -66,6 +74,11 @@ PUBLISHER_SETTINGS = (
             'the same BatteryState also on this topic, relative to the robot (opennav_docking reads '
             'battery_state; empty: battery_status only)', False),
 )
+
+
+def setting(name):
+    """The Setting named ``name`` (battery or publisher)."""
+    return next(s for s in BATTERY_SETTINGS + PUBLISHER_SETTINGS if s.name == name)
 
 
 def check_setting(setting, value, shown_name=None):
