@@ -11,7 +11,6 @@ once per executor turn, so nothing spins and no thread is held per goal.
 ``charging`` takes true / false and 1 / 0 (ROS 1's values); a parameter set
 is checked whole before any of it acts (a refused set changes nothing).
 """
-from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.parameter import Parameter
@@ -27,6 +26,7 @@ from battery_simulator.msg import BatterySimState
 from battery_simulator.ros2.messages import SimState
 from battery_simulator.ros2.qos import LATCHED_QOS
 from battery_simulator.ros2.services import BatteryServices
+from battery_simulator.ros2.velocity import VelocityInput
 
 MODE_PARAMETER = 'charging'
 LOG_PERIOD_S = 1.0
@@ -59,7 +59,8 @@ class BatterySimServer:
                                     goal_callback=lambda goal: GoalResponse.ACCEPT,
                                     handle_accepted_callback=self._accepted,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT)
-        node.create_subscription(Twist, ns + topics.CMD_VEL, self._on_cmd_vel, 1)
+        self._cmd_vel_name = ns + topics.CMD_VEL
+        self._cmd_vel = VelocityInput(node, ns + topics.CMD_VEL, self._on_cmd_vel)   # Twist or TwistStamped
         node.create_subscription(Bool, ns + topics.CHARGER_CONTACT, self._on_contact, 10)
         self.services = BatteryServices(node, ns, self)
 
@@ -124,6 +125,10 @@ class BatterySimServer:
         if self._store is not None:
             self._store.maybe_save(update.saved_state)
         self._check_goal(update.snapshot)
+        taken = self._cmd_vel.follow_publishers()
+        if taken is not None:
+            self._log.info('%s: taking %s, as its publishers send', self.node.resolve_topic_name(
+                self._cmd_vel_name), taken)
 
     def finish(self):
         """At shutdown, while the context is up: end the active goal (aborted, "server shutting down") and
