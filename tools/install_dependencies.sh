@@ -10,8 +10,22 @@ missing=()
 for package in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q 'install ok installed' || missing+=("$package")
 done
+# What Debian does not package (rosbags for battery_fit): from PyPI into build/python_deps, again
+# only when tools/python_requirements.txt has changed.
+python_deps() {
+  local target="$here/build/python_deps" wanted
+  wanted=$(sha1sum "$here/tools/python_requirements.txt" | cut -c1-40)
+  [ -f "$target/.requirements" ] && [ "$(cat "$target/.requirements")" = "$wanted" ] && return
+  echo "install_dependencies: pip install --target build/python_deps (tools/python_requirements.txt)"
+  rm -rf "$target"
+  /usr/bin/python3 -m pip install -q --disable-pip-version-check --no-deps --target "$target" \
+    -r "$here/tools/python_requirements.txt"
+  echo "$wanted" >"$target/.requirements"
+}
+
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install_dependencies: all ${#packages[@]} packages present"
+  python_deps
   exit 0
 fi
 
@@ -20,4 +34,5 @@ sudo=""
 echo "install_dependencies: installing ${missing[*]}"
 $sudo apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+python_deps
 echo "install_dependencies: done"

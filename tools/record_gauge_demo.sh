@@ -1,9 +1,13 @@
 #!/bin/bash
-# Record one demo cycle with gauge:=realistic (speed 240) into docs/demo_gauge.bag and plot what the
-# robot read against the truth into docs/demo_gauge.png (about a minute). Its own master on a free
-# port; every process it starts is ended by its pid.
+# Record CYCLES demo cycles (default 4) with gauge:=realistic (speed 240) and plot what the robot read against
+# the truth, the cells, the cut-off and the phases into docs/demo_gauge.png (about 3 minutes); print each
+# cycle's figures (the steady state of docs/robot_loop.md). Usage: tools/record_gauge_demo.sh [CYCLES]
+# [demo.launch arguments...]. Its own master on a free port; every process it starts is ended by its pid.
+# The bag stays in a temporary folder (removed at the end) unless KEEP_BAG=path is set.
 set -eo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+cycles=4
+if [[ "$1" =~ ^[0-9]+$ ]]; then cycles=$1; shift; fi
 export PATH="/usr/bin:$PATH"
 "$root/tools/build.sh" >/dev/null
 source "$root/build/devel/setup.bash"
@@ -14,13 +18,55 @@ roslaunch -p "$port" battery_simulator demo.launch gauge:=realistic speed:=240 "
 trap 'kill -INT $recorder $demo 2>/dev/null; wait $demo 2>/dev/null; rm -rf "$work"' EXIT
 until rostopic list >/dev/null 2>&1; do sleep 0.2; done
 rosbag record -O "$work/demo_gauge.bag" /battery_status /battery_simulator/state /patrol_and_dock/phase \
-  __name:=gauge_recorder > /dev/null 2>&1 & recorder=$!
-until [ "$(grep -c 'phase [A-Z_]* at' "$work/demo.log")" -ge 5 ]; do sleep 0.5; done
+  /battery_low /battery_critical __name:=gauge_recorder > /dev/null 2>&1 & recorder=$!
+# a cycle is PATROL, GO_TO_DOCK, CHARGING, UNDOCK; end at the PATROL after the last cycle's UNDOCK
+until [ "$(grep -c 'phase [A-Z_]* at' "$work/demo.log")" -ge $((4 * cycles + 1)) ]; do sleep 0.5; done
 sleep 2
 rosnode kill /gauge_recorder > /dev/null
 for _ in $(seq 100); do [ -f "$work/demo_gauge.bag" ] && break; sleep 0.1; done
 wait $recorder || true
 grep 'phase [A-Z_]* at' "$work/demo.log" | sed 's/.*\]: //'
-cp "$work/demo_gauge.bag" "$root/docs/demo_gauge.bag"
-/usr/bin/python3 "$root/tools/plot_gauge.py" "$root/docs/demo_gauge.bag" -o "$root/docs/demo_gauge.png" \
-  --title 'demo.launch gauge:=realistic (speed 240): what the robot read against the truth'
+/usr/bin/python3 - "$work/demo_gauge.bag" <<'EOF'
+"""Each cycle's figures: where the robot read low and docked (read and true), and how the charge ended."""
+import sys
+
+import rosbag
+
+read, truth, phases = [], [], []
+with rosbag.Bag(sys.argv[1]) as bag:
+    for topic, msg, stamp in bag.read_messages():
+        if topic == '/battery_status':
+            read.append((msg.header.stamp.to_sec(), 100.0 * msg.percentage, msg.current, msg.power_supply_status))
+        elif topic == '/battery_simulator/state':
+            truth.append((msg.battery.header.stamp.to_sec(), msg.true_percentage))
+        elif topic == '/patrol_and_dock/phase':
+            phases.append((stamp.to_sec(), msg.data))
+
+
+def at(series, t):
+    """The value of a (t, value, ...) series at time t (the last sample at or before it)."""
+    last = series[0]
+    for sample in series:
+        if sample[0] > t:
+            break
+        last = sample
+    return last
+
+
+FULL = 4
+for (t0, p0), (t1, p1) in zip(phases, phases[1:]):
+    if p1 == 'CHARGING':   # docked
+        dock = t1
+        print('docked: read %.1f %%, true %.1f %%' % (at(read, dock)[1], at(truth, dock)[1]))
+    if p0 == 'CHARGING':   # the charge from t0 to t1
+        charge = [r for r in read if t0 <= r[0] <= t1]
+        pinned = next((r for r in charge if r[1] >= 99.95), None)
+        full = next((r for r in charge if r[3] == FULL), None)
+        if pinned is not None and full is not None:
+            print('  read 100 %% at true %.1f %%, %.0f s before Full (current then %.2f A); Full at true %.1f %%'
+                  % (at(truth, pinned[0])[1], full[0] - pinned[0], pinned[2], at(truth, full[0])[1]))
+EOF
+if [ -n "$KEEP_BAG" ]; then cp "$work/demo_gauge.bag" "$KEEP_BAG"; fi
+rosrun battery_simulator battery_plot.py "$work/demo_gauge.bag" -o "$root/docs/demo_gauge.png" --low 0.25 \
+  --config "$root/config/battery_realistic.yaml" \
+  --title "demo.launch gauge:=realistic (speed 240), $cycles cycles: what the robot read against the truth"

@@ -13,7 +13,8 @@
 #   5. DDS on this machine only: ROS_AUTOMATIC_DISCOVERY_RANGE=SYSTEM_DEFAULT and the Fast DDS profile
 #      tools/ros2/fastdds_localhost.xml (shared memory and UDPv4 on 127.0.0.1, unicast discovery).
 # Then COMMAND runs with the package's executables on PATH (battery_sim, battery_state_pub,
-# battery_fleet, battery_sim_client, battery_replay, battery_plot) and the venv's python3 first.
+# battery_fleet, battery_sim_client, battery_replay, battery_plot, battery_dashboard) and the venv's python3
+# first.
 # A ROS 2 user with a real ROS 2 installation needs none of this: colcon build, then ros2 run.
 set -eo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

@@ -5,9 +5,13 @@ with every battery_status subscribed (RSS, CPU, launch to every first message, r
 
     tools/benchmark.sh ros2            # N = 10, 100 and 250
     tools/ros2.sh python3 tools/ros2_benchmark.py 10 100
+    tools/ros2.sh python3 tools/ros2_benchmark.py dashboard   # battery_dashboard, 100 robots, the page open
 """
+import http.client
+import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -145,11 +149,98 @@ def fleet(rows, n):
         listener.close()
 
 
+#: ROS 1's figure (docs/dashboard.md, tools/graph_benchmark.py): the ROS 2 dashboard's target is 1.5 times it
+ROS1_DASHBOARD_CPU = 3.2
+#: the overview in headless Chromium (Debian's selenium on /usr/bin/python3), open until stdin closes
+OPEN_PAGE = '''
+import sys, time
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.support.ui import WebDriverWait
+options = webdriver.ChromeOptions()
+for argument in ('--headless=new', '--no-sandbox', '--disable-gpu', '--window-size=1280,800'):
+    options.add_argument(argument)
+driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver'))
+try:
+    driver.get(sys.argv[1])
+    WebDriverWait(driver, 120, 0.2).until(lambda d: d.execute_script(
+        "return document.querySelectorAll('[data-battery]').length") >= int(sys.argv[2]))
+    print('open', flush=True)
+    sys.stdin.readline()
+    print(driver.execute_script("return document.querySelectorAll('[data-battery]:not(.stale)').length"), flush=True)
+finally:
+    driver.quit()
+'''
+
+
+def dashboard_batteries(port):
+    try:
+        connection = http.client.HTTPConnection('127.0.0.1', port, timeout=5.0)
+        connection.request('GET', '/api/batteries', headers={'Host': '127.0.0.1:%d' % port})
+        return len(json.loads(connection.getresponse().read())['batteries'])
+    except (OSError, ValueError):
+        return -1
+
+
+def free_port():
+    with socket.socket() as probe:
+        probe.bind(('127.0.0.1', 0))
+        return probe.getsockname()[1]
+
+
+def dashboard(rows, n=100):
+    """battery_dashboard beside a fleet of ``n`` at 1 Hz with the overview open in headless Chromium."""
+    port = free_port()
+    host = start(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=bench'])
+    board = start(['battery_dashboard', '--ros-args', '-p', 'port:=%d' % port])
+    page = None
+    try:
+        deadline = time.monotonic() + 120.0
+        while dashboard_batteries(port) < n and time.monotonic() < deadline:
+            time.sleep(0.5)
+        page = subprocess.Popen(['/usr/bin/python3', '-c', OPEN_PAGE, 'http://127.0.0.1:%d/' % port, str(n)],
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                env=dict(os.environ, PYTHONPATH=''))
+        assert page.stdout.readline().strip() == 'open', 'the page did not show %d batteries' % n
+        time.sleep(5.0)   # settle after start-up
+        cpu = {}
+        threads = [threading.Thread(target=lambda p=p: cpu.__setitem__(p.pid, cpu_percent(p.pid, CPU_WINDOW_S)))
+                   for p in (board, host)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        memory = rss_mb(board.pid)
+        page.stdin.write('\n')
+        page.stdin.flush()
+        fresh = page.stdout.readline().strip()
+        page.wait(30.0)
+        rows.append(('battery_dashboard: %d batteries at 1 Hz, the page open (%.0f s)' % (n, CPU_WINDOW_S),
+                     '%.1f %% of a core, %.0f MB' % (cpu[board.pid], memory),
+                     'ROS 1 (docs): %.1f %%; %s of %d fresh on the page; fleet host %.1f %%' % (
+                         ROS1_DASHBOARD_CPU, fresh, n, cpu[host.pid]),
+                     '<= %.1f %% (1.5 x ROS 1)' % (1.5 * ROS1_DASHBOARD_CPU)))
+    finally:
+        if page is not None and page.poll() is None:   # stdin closed: it quits its browser and ends
+            page.stdin.close()
+            try:
+                page.wait(30.0)
+            except subprocess.TimeoutExpired:
+                page.kill()
+                page.wait()
+        stop(board)
+        stop(host)
+
+
 def main():
-    sizes = [int(a) for a in sys.argv[1:]] or [10, 100, 250]
+    arguments = sys.argv[1:]
+    sizes = [int(a) for a in arguments if a != 'dashboard'] or ([] if arguments else [10, 100, 250])
     rclpy.init()
     rows = []
-    one_battery(rows)
+    if 'dashboard' in arguments:
+        dashboard(rows)
+    else:
+        one_battery(rows)
     for n in sizes:
         fleet(rows, n)
     rclpy.shutdown()

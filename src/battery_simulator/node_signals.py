@@ -23,8 +23,8 @@ NODE_SCRIPTS = ('battery_sim_server.py', 'battery_state_pub.py', 'battery_fleet.
                 'battery_dock_contact.py', 'battery_cmd_vel_gate.py', 'fake_base.py', 'patrol_and_dock.py',
                 'sim_clock.py',
                 # ROS 2 (ros2/__init__): until their main takes over before rclpy.init
-                'battery_sim', 'battery_state_pub', 'battery_fleet', 'fake_base', 'battery_dock_contact',
-                'battery_cmd_vel_gate', 'patrol_and_dock', 'sim_clock', 'battery_demo')
+                'battery_sim', 'battery_state_pub', 'battery_fleet', 'battery_dashboard', 'fake_base',
+                'battery_dock_contact', 'battery_cmd_vel_gate', 'patrol_and_dock', 'sim_clock', 'battery_demo')
 _stopping = threading.Event()
 
 

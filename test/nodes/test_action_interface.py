@@ -98,7 +98,7 @@ class TestActionInterface(unittest.TestCase):
         full = self.status.wait_until(lambda m: m.power_supply_status == BatteryState.POWER_SUPPLY_STATUS_FULL,
                                       10.0, 'FULL on battery_status')
         self.assertAlmostEqual(full.percentage, 1.0, places=5)
-        self.assertEqual(full.current, 0.0)
+        self.assertGreater(full.current, 0.5, 'held full on the charger, which carries the base load (Part 7)')
 
     def test_discharge_goal_succeeds_empty_and_stops_at_cut_off(self):
         self.discharge_below(15)

@@ -16,7 +16,8 @@ KEEP = 20
 def single_rc_cell():
     """The lg_hg2_cell preset as it was before issue 25 (no key of the two-RC model)."""
     values = yaml.safe_load((DATA / 'lg_hg2_cell.yaml').read_text(encoding='utf-8'))
-    return from_mapping(values, base=BatteryParameters())
+    # saved before the held-full charger (Part 7), which changes only the current shown at Full on the dock
+    return from_mapping(dict(values, charger_holds_full=False), base=BatteryParameters())
 
 
 def _trace(model, steps):
@@ -45,7 +46,7 @@ def runs():
     rows += _trace(model, [(30.0, {'power_w': -40.0})] * 300)
     out['pack_modes'] = rows
     out['pack_export'] = model.export_state()
-    model = BatteryModel(BatteryParameters(ambient_temperature_c=0.0), state_of_charge=0.5, mode=Mode.CHARGE)
+    model = BatteryModel(BatteryParameters(ambient_temperature_c=0.0, charger_holds_full=False), state_of_charge=0.5, mode=Mode.CHARGE)
     out['default_cold_charge'] = _trace(model, [(60.0, {})] * 200)
     return out
 

@@ -86,14 +86,16 @@ def test_cc_cv_charge_tapers_and_ends_full_at_c20():
     assert model.status is Status.FULL and model.state_of_charge == 1.0
     assert currents[0] == pytest.approx(CELL.charge_current_a), 'starts at constant current'
     assert max(voltages) <= CELL.cell_charge_voltage_v + 0.001, 'never above the CV voltage (1 mV)'
-    assert currents[-1] == 0.0, 'the charger turned off'
+    assert model.cell_current_a == 0.0, 'the charge ended: the cells take nothing'
+    assert currents[-1] == CELL.load_current_a, 'held full: the charger carries the robot\'s load (Part 7)'
     tapering = [c for c in currents[:-1] if c < CELL.charge_current_a - 1e-9]
     assert tapering and tapering == sorted(tapering, reverse=True), 'CV current falls monotonically'
     termination = CELL.pack_termination_current_a
     assert termination < tapering[-1] < 1.5 * termination, 'ends at the termination current'
     assert CELL.pack_termination_current_a == pytest.approx(CELL.cell_capacity_ah / 20)
     model.step(100.0)
-    assert model.status is Status.FULL and model.current_a == 0.0, 'charger off when full'
+    assert model.status is Status.FULL and model.state_of_charge == 1.0 and model.cell_current_a == 0.0, \
+        'held full: nothing into the cells'
 
 
 def test_charge_goal_at_full_is_full_at_once():

@@ -59,6 +59,16 @@ def test_discovery_finds_every_battery_state_topic_and_the_extras_beside_it():
     assert model.discover([]) == ({}, {})
 
 
+def test_a_battery_state_twin_of_battery_status_is_one_battery():
+    """battery_state_pub publishes battery_state beside battery_status (opennav_docking's name): shown once; a
+    battery_state alone (another driver) is a battery of its own."""
+    published = [('/robot0/battery_status', model.BATTERY_TYPE), ('/robot0/battery_state', model.BATTERY_TYPE),
+                 ('/other/battery_state', model.BATTERY_TYPE), ('/robot0/battery_low', model.BOOL_TYPE)]
+    batteries, _ = model.discover(published)
+    assert sorted(batteries) == ['/other/battery_state', '/robot0/battery_status']
+    assert batteries['/robot0/battery_status'] == {'low': '/robot0/battery_low'}
+
+
 def test_namespace_of():
     assert model.namespace_of('/robot3/battery_status') == '/robot3/'
     assert model.namespace_of('/battery_status') == '/'
@@ -297,8 +307,8 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
 
     def _call(self, *arguments):
         self.calls.append(arguments)
-        if arguments[2].get('state_of_health') == 0.001:   # as the simulator refuses it
-            return app.SERVICE_REFUSED, 'state_of_health = 0.001 is invalid: must be in [0.01, 1]'
+        if arguments[2].get('percentage') == 97:   # a value the service refuses (the dashboard let it through)
+            return app.SERVICE_REFUSED, 'percentage = 97 is refused by the service'
         if arguments[2].get('percentage') == 99:
             return app.SERVICE_UNREACHABLE, '/robot3/battery_simulator/set_state: timeout'
         if arguments[2].get('percentage') == 98:   # a service that hangs
@@ -359,9 +369,13 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert self.calls == []
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 15}).code == 200
         assert self.calls[0][:2] == (TOPIC, 'set_state') and self.calls[0][2]['percentage'] == 15.0
-        refused = post({'topic': TOPIC, 'action': 'set_state', 'state_of_health': 0.001})
+        refused = post({'topic': TOPIC, 'action': 'set_state', 'percentage': 97})
         assert refused.code == 422, 'a value the service refuses is the user\'s error (4xx), not a 502'
-        assert 'state_of_health = 0.001 is invalid' in json.loads(refused.body)['message']
+        assert 'percentage = 97 is refused' in json.loads(refused.body)['message']
+        calls = len(self.calls)
+        below = post({'topic': TOPIC, 'action': 'set_state', 'state_of_health': 0.001})
+        assert below.code == 400 and len(self.calls) == calls, 'below the simulator\'s least health: no call'
+        assert '[0.01, 1]' in json.loads(below.body)['message'], json.loads(below.body)['message']
         assert post({'topic': TOPIC, 'action': 'set_state', 'percentage': 99}).code == 502, 'a service gone: 502'
         self.hub.call_timeout_s = 0.2
         hung = post({'topic': TOPIC, 'action': 'set_state', 'percentage': 98})
@@ -483,3 +497,23 @@ def test_a_silent_but_advertised_topic_stays_away_once_dropped():
     assert TOPIC not in dashboard.records and not changed, 'it came back as fresh without a message'
     dashboard.on_battery(TOPIC, battery(), 104.0)   # a message brings it back
     assert TOPIC in dashboard.records and not dashboard.records[TOPIC].stale(104.5)
+
+
+def test_the_page_takes_its_texts_and_limits_from_the_core():
+    """The health texts are the diagnostics' (core/names.py), set_state's limits the simulator's
+    (core/battery_model.py), the low / critical defaults battery_state_pub's (core/settings.py)."""
+    from battery_simulator.core import names
+    from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, SET_STATE_TEMPERATURE_C
+    from battery_simulator.core.settings import PUBLISHER_SETTINGS
+    dashboard = DashboardModel(history_s=600)
+    for code, text in names.HEALTH_TEXT.items():
+        dashboard.on_battery(TOPIC, battery(health=code), 0.0)
+        shown = dashboard.snapshot(0.1)[0]['fields']['health']
+        assert shown == ('-' if code == names.SupplyHealth.UNKNOWN else text), (code, shown)
+    assert app.SET_STATE_RANGES['state_of_health'] == (MIN_STATE_OF_HEALTH, 1.0)
+    assert app.SET_STATE_RANGES['temperature_c'] == SET_STATE_TEMPERATURE_C
+    with pytest.raises(ValueError, match=r'\[0\.01, 1\]'):
+        app.control_request({'action': 'set_state', 'state_of_health': MIN_STATE_OF_HEALTH / 2})
+    defaults = {setting.name: setting.default for setting in PUBLISHER_SETTINGS}
+    assert (model.LOW_FRACTION, model.CRITICAL_FRACTION) == (defaults['low_percentage'],
+                                                             defaults['critical_percentage'])

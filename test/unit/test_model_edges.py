@@ -179,7 +179,7 @@ def test_a_charge_that_overshoots_full_within_a_step_ends_full():
     model.set_mode(Mode.CHARGE)
     assert model.status is Status.CHARGING and model.current_a == 1.5
     model.step(100.0)
-    assert (model.status, model.state_of_charge, model.current_a) == (Status.FULL, 1.0, 0.0)
+    assert (model.status, model.state_of_charge, model.cell_current_a) == (Status.FULL, 1.0, 0.0)
     assert model.snapshot().percentage == 100.0
 
 

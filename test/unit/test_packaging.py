@@ -67,7 +67,8 @@ def test_every_ros2_dependency_comes_with_the_ros2_wheels():
     wheels = {line.split('==')[0].strip().lower() for line in
               (ROOT / 'tools' / 'ros2' / 'requirements.txt').read_text().splitlines()
               if line.strip() and not line.startswith('#')}
-    python_keys = {'python3-yaml': 'pyyaml', 'python3-matplotlib': 'matplotlib', 'python3-pytest': 'pytest'}
+    python_keys = {'python3-yaml': 'pyyaml', 'python3-matplotlib': 'matplotlib', 'python3-pytest': 'pytest',
+                   'python3-tornado': 'tornado', 'python3-numpy': 'numpy', 'python3-scipy': 'scipy'}
     missing = []
     for key in sorted(package_dependencies(2)):
         wheel = python_keys.get(key, 'ros-kilted-' + key.replace('_', '-'))

@@ -193,7 +193,7 @@ def test_from_mapping_messages_name_the_origin():
                                      'cold_temperature_c, capacity_fade_per_cycle, initial_cycle_count, '
                                      'drive_power_w_per_mps, turn_power_w_per_radps, cmd_vel_timeout_s, '
                                      'voltage_noise_v, current_noise_a, location, serial_number, source, capacity_spread, '
-                                     'resistance_spread, spread_seed, groups, balancing, imbalance_warn_v, gauge)')
+                                     'resistance_spread, spread_seed, groups, balancing, imbalance_warn_v, gauge, charger_holds_full, conventions)')
     with pytest.raises(ParameterError) as error:
         from_mapping({'preset': 'turbo'})
     assert str(error.value) == "parameters: parameter preset = 'turbo' is invalid: must be one of %s" % (

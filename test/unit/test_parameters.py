@@ -35,7 +35,9 @@ def test_every_parameter_has_a_unit_or_is_a_count_or_text():
                 'resistance_soc', 'r0_soc_factor', 'r1_soc_factor', 'r_fast_soc_factor', 'r0_charge_factor',
                 'r1_charge_factor', 'r_fast_charge_factor',
                 # Part 5: relative spreads, a seed, and mappings whose keys carry their units
-                'capacity_spread', 'resistance_spread', 'spread_seed', 'groups', 'balancing', 'gauge'}
+                'capacity_spread', 'resistance_spread', 'spread_seed', 'groups', 'balancing', 'gauge',
+                # Part 7: a switch, and a mapping of a sign and a scale
+                'charger_holds_full', 'conventions'}
     for name in PARAMETER_NAMES:
         assert name in unitless or name.endswith(units), name
 

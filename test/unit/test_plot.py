@@ -72,3 +72,62 @@ def test_a_replay_of_a_pack_of_groups_draws_the_cell_spread_and_the_gauge(tmp_pa
     result = run_plot(csv_path, '-o', tmp_path / 'aged.png')
     assert result.returncode == 0, result.stderr
     assert is_png(tmp_path / 'aged.png')
+
+
+def test_low_and_critical_are_marked_where_the_gauge_crosses_them_not_the_truth(tmp_path):
+    """Issue 33 item 8: what the robot saw is the gauge; the truth (soc) crossed 20 % an hour earlier."""
+    csv_path = tmp_path / 'gauge.csv'
+    csv_path.write_text('time,voltage,current,soc,temperature,status,cell_voltage_min,cell_voltage_max,gauge_soc\n'
+                        '0,11.5,-1.5,0.30,25.0,DISCHARGING,3.80,3.84,0.40\n'
+                        '3600,11.0,-1.5,0.15,25.0,DISCHARGING,3.60,3.64,0.26\n'
+                        '7200,10.5,-1.5,0.03,25.0,DISCHARGING,3.40,3.46,0.12\n'
+                        '9000,10.0,-1.5,0.00,25.0,EMPTY,3.20,3.30,0.04\n')
+    run = plot.read_replay_csv(csv_path)
+    events = [(t, label) for t, label in run.marks if label in ('low', 'critical')]
+    assert events == [(7200.0, 'low'), (9000.0, 'critical')], run.marks
+    run = plot.read_replay_csv(csv_path, low=0.3, critical=0.13)
+    assert [(t, label) for t, label in run.marks if label in ('low', 'critical')] == \
+        [(3600.0, 'low'), (7200.0, 'critical')], 'the thresholds given'
+
+
+def test_a_bag_of_the_gauge_demo_has_the_truth_the_cells_and_the_events():
+    run = plot.read_rosbag(ROOT / 'docs' / 'demo_gauge.bag', low=0.25)
+    assert run.truth is not None and len(run.truth[0]) > 100, 'battery_simulator/state true_percentage'
+    assert run.cells is not None and len(run.cells[0]) == len(run.time)
+    assert all(low <= high for low, high in zip(*run.cells))
+    labels = [label for _, label in run.marks]
+    assert 'low' in labels and 'GO_TO_DOCK' in labels, labels
+
+
+def test_the_labels_of_close_marks_never_overlap(tmp_path):
+    """Issue 33 item 8: in docs/demo_gauge.png the phase labels printed over one another. Marks a few
+    seconds apart (a status and a phase) get lanes of their own; marks at one moment share one label."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot
+    marks = [(0.0, 'DISCHARGING'), (1.0, 'PATROL'), (700.0, 'low'), (705.0, 'GO_TO_DOCK'), (715.0, 'CHARGING'),
+             (718.0, 'CHARGING'), (6172.0, 'FULL'), (6184.0, 'UNDOCK'), (6192.0, 'DISCHARGING'), (6208.0, 'PATROL')]
+    figure, (strip, axis) = pyplot.subplots(2, 1, figsize=(10, 4))
+    axis.plot([0.0, 7000.0], [0.0, 1.0])
+    texts = plot._label_strip(figure, strip, marks, 1.0, axis)
+    renderer = figure.canvas.get_renderer()
+    boxes = [text.get_window_extent(renderer) for text in texts]
+    assert len(boxes) == len(plot.merged_marks(marks, 6208.0, plot.SAME_MOMENT)) >= 6
+    for index, box in enumerate(boxes):
+        for other in boxes[index + 1:]:
+            assert not box.overlaps(other), [t.get_text() for t in texts]
+    pyplot.close(figure)
+
+
+def test_the_plot_draws_cells_cut_off_and_the_levels(tmp_path):
+    csv_path = tmp_path / 'cells.csv'
+    csv_path.write_text('time,voltage,current,soc,temperature,status,cell_voltage_min,cell_voltage_max,gauge_soc\n'
+                        '0,11.5,-1.5,0.30,25.0,DISCHARGING,3.80,3.84,0.40\n'
+                        '3600,10.0,0,0.0,25.0,EMPTY,2.50,2.60,0.0\n')
+    result = run_plot(csv_path, '-o', tmp_path / 'cells.png', '--preset', 'lg_hg2_3s1p', '--low', '0.25')
+    assert result.returncode == 0, result.stderr
+    assert is_png(tmp_path / 'cells.png')
+    for args, named in ((('--low', '2'), '--low'), (('--preset', 'nope'), 'preset')):
+        result = run_plot(csv_path, '-o', tmp_path / 'x.png', *args)
+        assert result.returncode != 0 and named in result.stderr and len(result.stderr.strip().splitlines()) == 1, \
+            result.stderr

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import preset, preset_names
 from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, main, read_profile, replay
 
@@ -264,7 +265,7 @@ def test_a_closed_pipe_sends_the_rest_to_devnull(tmp_path, monkeypatch):
 def stepped_by_hand(params, segments, step_s, state_of_charge=1.0, whole=()):
     """The voltages replay() should give: each (duration, kind, value) held in steps of at most step_s
     (the segments numbered in ``whole`` in one step)."""
-    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    model = make_model(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
     rows = []
     for number, (duration, kind, value) in enumerate(segments):
         steps = 1 if number in whole else max(1, int(math.ceil(duration / step_s)))
@@ -404,3 +405,29 @@ def test_the_csv_has_the_cell_spread_and_what_the_gauge_read(tmp_path):
     assert float(last['cell_voltage_max']) - float(last['cell_voltage_min']) > 0.001, 'the groups differ'
     # the aged gauge starts 2 points high and believes a 6 % larger capacity: it reads more than the truth
     assert float(last['gauge_soc']) > float(last['soc']) + 0.02, last
+
+
+@pytest.mark.parametrize('realistic', [False, True], ids=['lumped', 'groups_and_gauge'])
+def test_a_charge_after_a_cut_off_charges_so_a_replay_can_cycle(tmp_path, realistic):
+    """Issue 33 item 7: a positive current after the under-voltage cut-off charges (a charger connected
+    after the cut-off, as on the running node), on a lumped pack and on a pack of groups with a gauge
+    (demo.launch gauge:=realistic's config): three whole cycles."""
+    source = ('--config', SOURCE.parent / 'config' / 'battery_realistic.yaml', '--soc', '0.9') if realistic \
+        else ('--preset', 'lg_hg2_cell')
+    rows, t = ['time,current'], 0
+    for _ in range(3):   # 2 h at 3 A (the cut-off within it), then 4 h at 1.5 A (Full within it)
+        rows += ['%d,-3' % t, '%d,1.5' % (t + 7200)]
+        t += 7200 + 14400
+    rows.append('%d,0' % t)
+    result = run_cli(profile_file(tmp_path, '\n'.join(rows) + '\n'), *source)
+    assert result.returncode == 0, result.stderr
+    out = list(csv.DictReader(io.StringIO(result.stdout)))
+    ends = [(row['status'], float(row['current']), float(row['soc']), float(row['gauge_soc'])) for row in out[1:]]
+    assert [end[0] for end in ends] == ['EMPTY', 'FULL'] * 3, ends
+    for status, current, soc, gauge_soc in ends:
+        assert current == 0.0, ends   # no charger and no load connected between the rows' segments
+        if status == 'FULL':
+            assert soc == gauge_soc == 1.0, ('full, and the gauge recalibrated there', ends)
+        else:
+            # the gauge snapped to 0 at the cut-off and has counted its 20 mA offset at rest since
+            assert soc < 0.1 and gauge_soc < (0.02 if realistic else 0.1), ('cut off', ends)

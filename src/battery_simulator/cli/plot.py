@@ -3,11 +3,18 @@
     rosrun battery_simulator battery_plot.py run.csv -o run.png        # a battery_replay.py output
     rosrun battery_simulator battery_plot.py run.bag -o run.png        # a rosbag with battery_status
 
-Status changes are marked on the time axis (dotted lines, labelled), and so
-are battery_low / battery_critical events: from the bag's own topics when it
-recorded them, else from the level and the default thresholds; a bag's
-``.../phase`` topic (patrol_and_dock's) is marked too. Headless
-(matplotlib's Agg backend). A bad input gets one line and exit 1.
+Status changes are marked on the time axis (dotted lines, labelled; marks
+closer than a label's width share one label), and so are battery_low /
+battery_critical events: from the bag's own topics when it recorded them, else
+where what the robot read (the fuel gauge: battery_status's percentage, a
+replay's gauge_soc) crosses ``--low`` / ``--critical`` (the publisher's
+defaults 0.20 / 0.05), drawn as labelled lines on the charge plot; a bag's
+``.../phase`` topic (patrol_and_dock's) is marked too. The truth is drawn
+beside the gauge when it differs (a replay's soc, a bag's
+battery_simulator/state true_percentage), the series groups' cell voltages
+as a min-max band, and with ``--config`` / ``--preset`` the cell cut-off and
+charge voltages. Headless (matplotlib's Agg backend). A bad input gets one
+line and exit 1.
 """
 import argparse
 import csv
@@ -16,10 +23,16 @@ import sys
 from collections import namedtuple
 
 from battery_simulator.core.level_alarm import LevelAlarm
+from battery_simulator.core.parameters import ParameterError, load_yaml, preset
 
 #: one run: times (s from the start) and the four series, plus [(t, label)] marks
-Run = namedtuple('Run', 'title time voltage current percentage temperature marks gauge cells',
-                 defaults=(None, None))   # gauge: what the fuel gauge read (%); cells: (min, max) cell voltages
+Run = namedtuple('Run', 'title time voltage current percentage temperature marks gauge cells truth',
+                 defaults=(None, None, None))
+# percentage: a replay's soc (the truth) or a bag's battery_status (what the robot read); gauge: a replay's
+# gauge_soc (%), on ``time``; cells: (min, max) cell voltages on ``time``; truth: a bag's
+# battery_simulator/state ([times], [true_percentage]) on its own times
+#: marks closer than this fraction of the run share one label ("FULL, UNDOCK": the same moment)
+SAME_MOMENT = 0.002
 SUPPLY_STATUS = {0: 'UNKNOWN', 1: 'CHARGING', 2: 'DISCHARGING', 3: 'NOT_CHARGING', 4: 'FULL'}
 LOW, CRITICAL, HYSTERESIS = 0.20, 0.05, 0.05   # the publisher's defaults
 
@@ -37,9 +50,10 @@ def status_marks(times, statuses):
     return marks
 
 
-def level_marks(times, fractions):
-    """[(t, 'low' / 'low cleared' / ...)] from the level, with the publisher's default thresholds."""
-    alarms = (('low', LevelAlarm(LOW, HYSTERESIS)), ('critical', LevelAlarm(CRITICAL, HYSTERESIS)))
+def level_marks(times, fractions, low=LOW, critical=CRITICAL):
+    """[(t, 'low' / 'low cleared' / ...)] where ``fractions`` (what the robot read) cross the thresholds,
+    with the publisher's hysteresis."""
+    alarms = (('low', LevelAlarm(low, HYSTERESIS)), ('critical', LevelAlarm(critical, HYSTERESIS)))
     marks = []
     for t, fraction in zip(times, fractions):
         for name, alarm in alarms:
@@ -48,7 +62,7 @@ def level_marks(times, fractions):
     return marks
 
 
-def read_replay_csv(path):
+def read_replay_csv(path, low=LOW, critical=CRITICAL):
     try:
         with open(path, newline='', encoding='utf-8-sig') as stream:
             rows = list(csv.DictReader(stream))
@@ -68,7 +82,6 @@ def read_replay_csv(path):
         raise PlotError('%s: a value is not a number (%s)' % (path, error)) from None
     start = time[0]
     time = [t - start for t in time]
-    marks = status_marks(time, [r['status'] for r in rows]) + level_marks(time, soc)
     gauge = cells = None
     try:
         if 'gauge_soc' in rows[0]:   # Part 5's columns (a CSV of an older replay has none)
@@ -76,11 +89,13 @@ def read_replay_csv(path):
             cells = ([float(r['cell_voltage_min']) for r in rows], [float(r['cell_voltage_max']) for r in rows])
     except (TypeError, ValueError, KeyError) as error:
         raise PlotError('%s: a value is not a number (%s)' % (path, error)) from None
+    read = [g / 100.0 for g in gauge] if gauge is not None else soc   # low/critical: what the robot read
+    marks = status_marks(time, [r['status'] for r in rows]) + level_marks(time, read, low, critical)
     return Run(str(path), time, percentage=[100.0 * s for s in soc], marks=sorted(marks), gauge=gauge, cells=cells,
                **series)
 
 
-def read_rosbag(path, topic=None):
+def read_rosbag(path, topic=None, low=LOW, critical=CRITICAL):
     import rosbag   # ROS: only for bags
     try:
         bag = rosbag.Bag(str(path))
@@ -97,13 +112,16 @@ def read_rosbag(path, topic=None):
         namespace = topic[:-len('battery_status')] if topic.endswith('battery_status') else ''
         events = {namespace + 'battery_low': 'low', namespace + 'battery_critical': 'critical'}
         phases = [t for t, info in types.items() if t.endswith('/phase') and info.msg_type == 'std_msgs/String']
-        messages, alarm_marks, active = [], [], {}
-        for name, msg, stamp in bag.read_messages(topics=[topic] + list(events) + phases):
+        state = namespace + 'battery_simulator/state'
+        messages, alarm_marks, active, truth = [], [], {}, []
+        for name, msg, stamp in bag.read_messages(topics=[topic, state] + list(events) + phases):
             if name == topic:
                 messages.append(msg)
+            elif name == state:
+                truth.append((msg.battery.header.stamp.to_sec(), msg.true_percentage))
             elif name in phases:
                 alarm_marks.append((stamp.to_sec(), msg.data))
-            elif msg.data != active.get(name, False):   # a change, not the latched initial false
+            elif msg.data != active.setdefault(name, False):   # a change, not the latched initial false
                 active[name] = msg.data
                 alarm_marks.append((stamp.to_sec(), events[name] + ('' if msg.data else ' cleared')))
     if not messages:
@@ -111,13 +129,16 @@ def read_rosbag(path, topic=None):
     start = messages[0].header.stamp.to_sec()
     time = [m.header.stamp.to_sec() - start for m in messages]
     marks = status_marks(time, [SUPPLY_STATUS.get(m.power_supply_status, '?') for m in messages])
-    if alarm_marks:
-        marks += [(max(0.0, t - start), label) for t, label in alarm_marks]
-    else:
-        marks += level_marks(time, [m.percentage for m in messages])
+    marks += [(max(0.0, t - start), label) for t, label in alarm_marks]
+    if not active:   # no battery_low / battery_critical recorded (phases are not events): from what was read
+        marks += level_marks(time, [m.percentage for m in messages], low, critical)
+    cells = None
+    if all(m.cell_voltage for m in messages):
+        cells = ([min(m.cell_voltage) for m in messages], [max(m.cell_voltage) for m in messages])
+    truth = ([max(0.0, t - start) for t, _ in truth], [p for _, p in truth]) if truth else None
     return Run('%s (%s)' % (os.path.basename(str(path)), topic), time, voltage=[m.voltage for m in messages],
                current=[m.current for m in messages], percentage=[100.0 * m.percentage for m in messages],
-               temperature=[m.temperature for m in messages], marks=sorted(marks))
+               temperature=[m.temperature for m in messages], marks=sorted(marks), cells=cells, truth=truth)
 
 
 def merged_marks(marks, span, fraction=0.02):
@@ -132,7 +153,8 @@ def merged_marks(marks, span, fraction=0.02):
     return merged
 
 
-def plot(run, output):
+def plot(run, output, low=LOW, critical=CRITICAL, cell_limits=None):
+    """The PNG; ``cell_limits``: (cut-off, charge voltage) per cell to draw beside the cells, or None."""
     import matplotlib
     matplotlib.use('Agg')
     from matplotlib import pyplot
@@ -140,34 +162,54 @@ def plot(run, output):
     minutes = run.time[-1] > 600
     scale, unit = (1 / 60.0, 'min') if minutes else (1.0, 's')
     time = [t * scale for t in run.time]
-    figure, axes = pyplot.subplots(4, 1, sharex=True, figsize=(10, 9))
-    for axis, values, label, colour in zip(
-            axes, (run.voltage, run.current, run.percentage, run.temperature),
-            ('voltage (V)', 'current (A)', 'charge (%)', 'temperature (°C)'),
-            ('tab:blue', 'tab:red', 'tab:green', 'tab:orange')):
-        axis.plot(time, values, color=colour, linewidth=1.2)
+    panels = [('voltage (V)', run.voltage, 'tab:blue')]
+    if run.cells is not None:
+        panels.append(('cell voltage (V)', None, None))
+    panels += [('current (A)', run.current, 'tab:red'), ('charge (%)', run.percentage, 'tab:green'),
+               ('temperature (°C)', run.temperature, 'tab:orange')]
+    figure, axes = pyplot.subplots(len(panels) + 1, 1, sharex=True, figsize=(10, 2.0 + 2.0 * len(panels)),
+                                   gridspec_kw={'height_ratios': [0.9] + [2.0] * len(panels)})
+    strip, axes = axes[0], list(axes[1:])
+    by_name = {}
+    for axis, (label, values, colour) in zip(axes, panels):
+        if values is not None:
+            axis.plot(time, values, color=colour, linewidth=1.2)
         axis.set_ylabel(label)
         axis.grid(alpha=0.3)
         for t, _ in run.marks:
             axis.axvline(t * scale, color='grey', linestyle=':', linewidth=0.8)
+        by_name[label] = axis
+    charge = by_name['charge (%)']
     if run.gauge is not None and any(abs(g - p) > 0.05 for g, p in zip(run.gauge, run.percentage)):
-        axes[2].plot(time, run.gauge, color='tab:purple', linewidth=1.0, linestyle='--', label='fuel gauge')
-        axes[2].lines[0].set_label('true charge')
-        axes[2].legend(loc='best', fontsize=8)
-    if run.cells is not None and any(high - low > 1e-4 for low, high in zip(*run.cells)):
-        cell_axis = axes[0].twinx()   # the spread of the series groups, per cell
-        cell_axis.fill_between(time, run.cells[0], run.cells[1], color='tab:cyan', alpha=0.35, linewidth=0)
-        cell_axis.set_ylabel('cell min-max (V)', fontsize=8)
-    axes[2].set_ylim(-2, 102)
-    top = axes[0]
-    labels = merged_marks(run.marks, run.time[-1] - run.time[0] if len(run.time) > 1 else 1.0)
-    for index, (t, text) in enumerate(labels):   # inside the top plot, alternating ends so neighbours overlap less
-        event = 'low' in text or 'critical' in text
-        top.annotate(' %s ' % text, xy=(t * scale, 0.03 if index % 2 else 0.97), xycoords=('data', 'axes fraction'),
-                     rotation=90, fontsize=7, va='bottom' if index % 2 else 'top', ha='right',
-                     color='darkred' if event else 'dimgrey')
+        charge.plot(time, run.gauge, color='tab:purple', linewidth=1.0, linestyle='--', label='fuel gauge (read)')
+        charge.lines[0].set_label('true charge')
+        charge.legend(loc='lower left', fontsize=8)
+    elif run.truth is not None:   # a bag: battery_status is the gauge, battery_simulator/state the truth
+        read = charge.lines[0]
+        read.set(label='what the robot read (battery_status)', linestyle='--', color='tab:purple')
+        charge.plot([t * scale for t in run.truth[0]], run.truth[1], color='tab:green', linewidth=1.0,
+                    label='the truth (battery_simulator/state)')
+        charge.legend(loc='lower left', fontsize=8)
+    for level, name in ((low, 'low'), (critical, 'critical')):   # where what the robot read raises the events
+        charge.axhline(100.0 * level, color='darkred', linewidth=0.7, linestyle='-.')
+        charge.annotate('%s %g %%' % (name, 100.0 * level), xy=(1.0, 100.0 * level),
+                        xycoords=('axes fraction', 'data'), xytext=(-4, 1), textcoords='offset points', ha='right',
+                        va='bottom', fontsize=7, color='darkred')
+    charge.set_ylim(-2, 102)
+    if run.cells is not None:
+        cells = by_name['cell voltage (V)']
+        cells.fill_between(time, run.cells[0], run.cells[1], color='tab:cyan', alpha=0.4, linewidth=0)
+        cells.plot(time, run.cells[0], color='teal', linewidth=0.8, label='lowest cell group')
+        cells.plot(time, run.cells[1], color='tab:cyan', linewidth=0.8, label='highest cell group')
+        for volts, name in zip(cell_limits or (), ('cut-off', 'charge voltage')):
+            cells.axhline(volts, color='darkred', linewidth=0.7, linestyle='-.')
+            cells.annotate('cell %s %.2f V' % (name, volts), xy=(1.0, volts), xycoords=('axes fraction', 'data'),
+                           xytext=(-4, 1 if name == 'cut-off' else -1), textcoords='offset points', ha='right',
+                           va='bottom' if name == 'cut-off' else 'top', fontsize=7, color='darkred')
+        cells.legend(loc='lower left', fontsize=8)
     axes[-1].set_xlabel('time (%s)' % unit)
     figure.suptitle(run.title, fontsize=10)
+    _label_strip(figure, strip, run.marks, scale, axes[0])
     figure.tight_layout()
     try:
         figure.savefig(output, dpi=110)
@@ -177,22 +219,83 @@ def plot(run, output):
         pyplot.close(figure)
 
 
+def _label_strip(figure, strip, marks, scale, reference):
+    """The marks' labels in a strip above the plots, each in the lowest lane where it overlaps none
+    (measured as drawn), with a tick down to its moment: labels never print over one another."""
+    strip.set_xlim(reference.get_xlim())
+    strip.axis('off')
+    texts = []
+    if marks:
+        span = marks[-1][0] - marks[0][0] or 1.0
+        for t, text in merged_marks(marks, span, SAME_MOMENT):
+            event = 'low' in text or 'critical' in text
+            texts.append((t * scale, strip.text(t * scale, 0.0, text, fontsize=7, ha='center', va='bottom',
+                                                color='darkred' if event else 'dimgrey')))
+    figure.tight_layout()
+    renderer = figure.canvas.get_renderer()
+    lanes = []   # per lane, the right edge (px) of its last label
+    for x, text in texts:
+        box = text.get_window_extent(renderer)
+        lane = next((k for k, right in enumerate(lanes) if box.x0 > right + 3), len(lanes))
+        if lane == len(lanes):
+            lanes.append(0.0)
+        lanes[lane] = box.x1
+        text.set_y(lane)
+        strip.plot([x, x], [lane - 0.15, lane], color='grey', linewidth=0.6)
+    strip.set_ylim(-0.3, max(len(lanes), 3))
+    return [text for _, text in texts]
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog='battery_plot.py', description='Plot a battery run into a PNG.')
+    parser = _OneLineParser(prog='battery_plot.py', description='Plot a battery run into a PNG.')
     parser.add_argument('input', help='a battery_replay.py output CSV, or a rosbag with a BatteryState topic')
     parser.add_argument('-o', '--output', default='battery.png', help='PNG to write (default battery.png)')
     parser.add_argument('--topic', help='BatteryState topic in the bag (default: the one ending in battery_status)')
     parser.add_argument('--title', help='the figure title (default: the file name)')
+    parser.add_argument('--low', type=_fraction, default=LOW,
+                        help='the low level, a fraction (default %g, battery_state_pub\'s; demo.launch: 0.25)' % LOW)
+    parser.add_argument('--critical', type=_fraction, default=CRITICAL,
+                        help='the critical level, a fraction (default %g)' % CRITICAL)
+    pack = parser.add_mutually_exclusive_group()
+    pack.add_argument('--config', help='the battery config YAML: draw its cell cut-off and charge voltages')
+    pack.add_argument('--preset', help='a battery preset: draw its cell cut-off and charge voltages')
     args = parser.parse_args(argv)
     try:
+        cell_limits = _cell_limits(args.config, args.preset)
         with open(args.input, 'rb') as stream:
             is_bag = stream.read(13) == b'#ROSBAG V2.0\n'
-        run = read_rosbag(args.input, args.topic) if is_bag else read_replay_csv(args.input)
+        run = read_rosbag(args.input, args.topic, args.low, args.critical) if is_bag \
+            else read_replay_csv(args.input, args.low, args.critical)
         if args.title:
             run = run._replace(title=args.title)
-        plot(run, args.output)
+        plot(run, args.output, args.low, args.critical, cell_limits)
     except OSError as error:
         sys.exit('battery_plot: %s: cannot read: %s' % (args.input, error.strerror))
-    except PlotError as error:
+    except (PlotError, ParameterError) as error:
         sys.exit('battery_plot: %s' % error)
     print('wrote %s (%d points, %d marks)' % (args.output, len(run.time), len(run.marks)))
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """A usage error is one line naming the argument (argparse would print the usage block first)."""
+
+    def error(self, message):
+        self.exit(2, '%s: error: %s\n' % (self.prog, message))
+
+
+def _fraction(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError('%r is not a number' % text) from None
+    if not 0.0 <= value <= 1.0:   # also NaN
+        raise argparse.ArgumentTypeError('%s is not a fraction in [0, 1] (0.25 = 25 %%)' % text)
+    return value
+
+
+def _cell_limits(config, preset_name):
+    """(cell cut-off, cell charge voltage) of the config or preset given, or None."""
+    if config is None and preset_name is None:
+        return None
+    params = load_yaml(config) if config else preset(preset_name)
+    return params.cell_cutoff_voltage_v, params.cell_charge_voltage_v

@@ -25,9 +25,10 @@ import threading
 import time
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.battery_model import CutOff, Mode, Status
 from battery_simulator.core.names import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
                                           SupplyStatus)
+from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, is_number,
                                                load_power_error)
 from battery_simulator.core.time_base import TimeBase
@@ -141,6 +142,8 @@ class BatteryRecord:
             sensor_dropout=self.sensor_dropout,
             true_percentage=s.true_percentage,
             imbalance_warn_v=self.params.imbalance_warn_v,
+            invert_current_sign=bool((self.params.conventions or {}).get('invert_current_sign', False)),
+            percentage_scale=float((self.params.conventions or {}).get('percentage_scale', 1)),
         )
 
 
@@ -198,8 +201,8 @@ class Battery:
         self._faults = set()
         self._noise = random.Random(noise_seed)
         self._invalid_logged = (None, 0.0)   # (repr of the bad mode value, monotonic time) last logged
-        self.model = BatteryModel(params, state_of_charge=self._initial_soc,
-                                  mode=Mode.CHARGE if charging else Mode.DISCHARGE)
+        self.model = make_model(params, state_of_charge=self._initial_soc,
+                                mode=Mode.CHARGE if charging else Mode.DISCHARGE)
 
     @property
     def params(self):
@@ -405,15 +408,16 @@ class Battery:
         return 'state set'
 
     def reset(self):
-        """Back to the start-up state (level, temperature, health, no faults); the mode stays. The reply's text."""
+        """Back to the configured start exactly (level, the groups' offsets, the gauge's initial error,
+        temperature, health, cycle count, no faults): a new model as at start-up, with the mode and the
+        named loads kept. The reply's text."""
         with self.lock:
-            self.model.set_state(self._initial_soc, self.model.initial_temperature_c,
-                                 max(MIN_STATE_OF_HEALTH,
-                                     1.0 - self.params.capacity_fade_per_cycle * self.params.initial_cycle_count))
-            self.model.discharged_ah = 0.0
+            self._step_to(self._clock())   # the time so far belongs to the old model
+            old = self.model
+            self.model = make_model(old.params, state_of_charge=self._initial_soc, mode=old.mode)
+            for name, (current_a, power_w) in old.extra_loads().items():
+                self.model.set_extra_load(name, current_a, power_w)
             cleared, self._faults = sorted(self._faults), set()   # the start-up state has no faults
-            self.model.set_charger_fault(False)
-            self.model.set_gauge_stuck(False)
         if cleared:
             self._log.warn('reset: faults cleared: %s', ', '.join(cleared))
         return 'reset to %.1f %%, mode kept%s' % (
@@ -497,6 +501,33 @@ def fill_fields(msg, fields):
     for name, value in fields.items():
         setattr(msg, name, value)
     return msg
+
+
+def published_battery_fields(record):
+    """battery_status's sensor_msgs/BatteryState fields for ``record``: its battery_fields() in the config's
+    ``conventions`` (apply_conventions). The front ends publish these on battery_status; everything else
+    (battery_simulator/state, diagnostics, feedback, low/critical) keeps the package's conventions. The
+    record's own dict is not changed."""
+    fields = record.battery_fields()
+    conventions = record.params.conventions
+    if not conventions:
+        return fields
+    fields = dict(fields)
+    fields['current'], fields['percentage'] = apply_conventions(fields['current'], fields['percentage'],
+                                                                conventions)
+    return fields
+
+
+def apply_conventions(current_a, percentage, conventions):
+    """(current, percentage) as a driver with ``conventions`` (the config key) publishes them, for testing a
+    consumer's robustness: the opposite current sign (Gazebo's invert_current_sign, firmware that counts
+    charge negative) and 0-100 percentages. None or {} changes nothing. For a front end that has the
+    message and not the record: ``msg.current, msg.percentage = apply_conventions(msg.current, ...)``."""
+    if not conventions:
+        return current_a, percentage
+    if conventions.get('invert_current_sign', False):
+        current_a = 0.0 - current_a   # 0.0 stays 0.0, not -0.0
+    return current_a, percentage * conventions.get('percentage_scale', 1)
 
 
 def noisy_voltage(voltage_v, noise_v):

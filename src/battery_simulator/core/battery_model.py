@@ -194,25 +194,24 @@ class ResistanceTable:
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
 #: set_state stop there), so every capacity the model divides by stays positive
 MIN_STATE_OF_HEALTH = 0.01
+#: the temperatures set_state takes, degC (low, high) inclusive
+SET_STATE_TEMPERATURE_C = (-60.0, 150.0)
 
 
 class BatteryModel:
     """A Li-ion pack: step it with ``step(dt_s)``, read it with ``snapshot()``.
 
-    Lumped (every series group alike: one cell's equations times the pack), or, when the config gives
-    a spread, groups or balancing, a pack of differing groups (core/pack.py's GroupedPack, which this
-    constructor returns then). Either way a fuel gauge (core/gauge.py) may stand between the truth
-    and what the snapshot's percentage says.
+    Lumped (every series group alike: one cell's equations times the pack). A config with a spread,
+    groups or balancing is a pack of differing groups, core/pack.py's GroupedPack: build either with
+    core/pack.py's ``make_model(params, ...)``. Either way a fuel gauge (core/gauge.py) may stand
+    between the truth and what the snapshot's percentage says.
     """
-
-    def __new__(cls, params=None, *args, **kwargs):
-        if cls is BatteryModel and params is not None and params.has_groups:
-            from battery_simulator.core.pack import GroupedPack
-            cls = GroupedPack
-        return super().__new__(cls)
 
     def __init__(self, params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
         params = params if params is not None else BatteryParameters()
+        if params.has_groups and type(self) is BatteryModel:
+            raise TypeError('a config with a spread, groups or balancing is a pack of groups: build it with '
+                            'battery_simulator.core.pack.make_model(params, ...)')
         _check_fraction('state_of_charge', state_of_charge)
         self.params = params
         self.ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)   # the discharge branch
@@ -246,7 +245,7 @@ class BatteryModel:
         self.throughput_as = 0.0      # charge through a cell since start, A*s (signed: the gauge counts it)
         self._stuck = None            # (percentage, charge) the gauge_stuck fault holds, or None
         self._update_capacity()
-        self.gauge = make_gauge(params.gauge, params.design_capacity_ah, self.state_of_charge)
+        self.gauge = make_gauge(params.gauge, self.capacity_ah, self.state_of_charge)   # the true capacity at start
         self._settle_status()
         self.step(0.0)
 
@@ -294,8 +293,9 @@ class BatteryModel:
                                  'stay in [0, 100]' % (gauge_error, 100.0 * soc + gauge_error))
         if state_of_charge is not None:
             _check_fraction('state_of_charge', state_of_charge)
-        if temperature_c is not None and not (is_number(temperature_c) and -60.0 <= temperature_c <= 150.0):
-            raise ValueError('temperature_c = %r is invalid: must be in [-60, 150] degC' % (temperature_c,))
+        low_c, high_c = SET_STATE_TEMPERATURE_C
+        if temperature_c is not None and not (is_number(temperature_c) and low_c <= temperature_c <= high_c):
+            raise ValueError('temperature_c = %r is invalid: must be in [%g, %g] degC' % (temperature_c, low_c, high_c))
         if state_of_health is not None:
             _check_fraction('state_of_health', state_of_health)
             if state_of_health < MIN_STATE_OF_HEALTH:
@@ -447,8 +447,9 @@ class BatteryModel:
         self._restore(start)
         self._advance(high, demand)
 
-    def _advance(self, dt_s, demand):
-        """The exact update for ``demand`` A per pack held over ``dt_s``."""
+    def _advance(self, dt_s, demand, limit_a=None):
+        """The exact update for ``demand`` A per pack held over ``dt_s``; a charge current of at most
+        ``limit_a`` per cell if given (a group in a string: the string's current)."""
         p = self.params
         cell_demand = demand / p.cells_parallel
         resistance_scale = self._resistance_scale()
@@ -487,6 +488,8 @@ class BatteryModel:
 
         if cell_demand > 0.0:
             current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0)
+            if limit_a is not None and current > limit_a:
+                current = limit_a
         elif cell_demand < 0.0:
             current = self._discharge_current(cell_demand)
         else:
@@ -613,7 +616,12 @@ class BatteryModel:
         return cell_demand
 
     def _clear_protection(self, demand):
-        """A BMS reconnects once an over-current or power demand is gone, or the pack has cooled."""
+        """A BMS reconnects once an over-current or power demand is gone, or the pack has cooled; a charger
+        connected after an under-voltage cut-off charges (as connecting it in CHARGE mode does)."""
+        if self.cut_off is CutOff.UNDER_VOLTAGE and demand > 0.0:
+            self.cut_off = None
+            self.status = Status.NOT_CHARGING   # the charge step makes it CHARGING
+            return
         if self.cut_off not in _SELF_CLEARING:
             return
         cell_demand = demand / self.params.cells_parallel
@@ -632,11 +640,12 @@ class BatteryModel:
         self.status = status
         self.cell_current_a = 0.0
 
-    def _become_full(self):
-        # A fuel gauge calls the end of the CV taper 100 %. The terminal
-        # voltage stays continuous: the slow RC pair takes up the OCV step.
+    def _become_full(self, state_of_charge=1.0):
+        # A fuel gauge calls the end of the CV taper 100 % (a pack of groups moves its other groups by the
+        # same charge: ``state_of_charge``). The terminal voltage stays continuous: the slow RC pair
+        # takes up the OCV step.
         ocv_before = self.open_circuit_voltage_v
-        self.state_of_charge = 1.0
+        self.state_of_charge = state_of_charge
         self.rc_voltage_v += ocv_before - self.open_circuit_voltage_v
         self.status = Status.FULL
         self.cell_current_a = 0.0
@@ -714,8 +723,25 @@ class BatteryModel:
 
     @property
     def current_a(self):
-        """Pack current, A: positive charging, negative discharging."""
+        """Pack current, A: positive charging, negative discharging; a full pack held full on the dock
+        shows the current the charger tops it up with (held_full_current_a)."""
+        if self.status is Status.FULL and self.mode is Mode.CHARGE and self.params.charger_holds_full:
+            return self.held_full_current_a
         return self.cell_current_a * self.params.cells_parallel
+
+    def extra_loads(self):
+        """The named loads (set_extra_load): {name: (current A, power W)}."""
+        return dict(self._extra_loads)
+
+    @property
+    def held_full_current_a(self):
+        """What the charger delivers to hold a full pack full on the dock (charger_holds_full), A: the
+        robot's own load (base load, payloads, motion) at the pack's voltage, replaced as it is drawn, so
+        the cells' charge stays where it is (charge is conserved: the load takes what the charger gives)."""
+        p = self.params
+        power_w = p.load_power_w + self._extra_power_w
+        voltage_v = self.voltage_v
+        return p.load_current_a + self._extra_current_a + (power_w / voltage_v if voltage_v > 0.0 else 0.0)
 
     @property
     def extra_power_w(self):
@@ -729,11 +755,14 @@ class BatteryModel:
 
     @property
     def time_remaining_s(self):
-        """At the present current: seconds to empty (discharging) or full (charging); None otherwise."""
-        if self.status is Status.DISCHARGING and self.cell_current_a < 0.0:
-            return self.state_of_charge * self._capacity_as / -self.cell_current_a
-        if self.status is Status.CHARGING and self.cell_current_a > 0.0:
-            return (1.0 - self.state_of_charge) * self._capacity_as / self.cell_current_a
+        """At the present current: seconds to empty (discharging) or full (charging) as the gauge reads the
+        charge (what a robot reads: the truth with an ideal gauge); None otherwise."""
+        current = self.current_a
+        if self.status is Status.DISCHARGING and current < 0.0:
+            return self.gauge_reading()[1] * 3600.0 / -current
+        if self.status is Status.CHARGING and current > 0.0:
+            _, charge, capacity = self.gauge_reading()
+            return max(0.0, capacity - charge) * 3600.0 / current
         return None
 
     @property

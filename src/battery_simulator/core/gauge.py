@@ -8,33 +8,56 @@ jump. The model keeps the truth; battery_status, the action's feedback,
 low/critical, the dashboard and predict show the gauge.
 
     measured current  I_m = I (1 + current_gain_error) + current_offset_a
-    gauge charge      q  += I_m dt   (clamped to [0, believed capacity])
-    believed capacity C_b = design capacity (1 + capacity_error)
-    gauge percentage  100 q / C_b
+    gauge charge      q  += I_m dt   (clamped to [0, believed capacity]; nothing while |I_m| <= deadband_a)
+    believed capacity C_b = true capacity at start (1 + capacity_error)
+    gauge percentage  100 q / C_b    (at start: the truth + initial_error, clamped to [0, 100])
+
+The deadband is a real gauge's (TI's Impedance Track gauges call it "CC Deadband"): a measured
+current within it counts as none, so that a sensor's offset does not move the gauge while no current
+flows (a pack cut off, or full on its charger). Its default sits just above the sensor's offset:
+``|current_offset_a|`` + DEFAULT_DEADBAND_A.
 """
+
+#: the deadband above the sensor's offset when the config gives none, A (a few mA, as gauges ship)
+DEFAULT_DEADBAND_A = 0.005
+
+
+#: a gauge that recalibrates at full counts up to this and no further: it shows 100 % when the charge
+#: terminates (on_full), not while the charge current still flows because its count got there first (a
+#: gauge ahead of the truth, or believing too little capacity). TI's Impedance Track gauges do the same:
+#: RelativeStateOfCharge is held at 99 % until they detect the taper's end (the FC flag).
+HOLD_BEFORE_FULL = 0.99
 
 
 class CoulombCounter:
     """A coulomb-counting gauge (the config's ``gauge: {model: coulomb_counter, ...}``)."""
 
-    def __init__(self, config, design_capacity_ah, true_soc):
+    def __init__(self, config, true_capacity_ah, true_soc):
+        """``true_capacity_ah``: the pack's capacity at start (aged as configured), which the gauge believes
+        ``capacity_error`` wrong; ``true_soc``: its state of charge then, which it believes ``initial_error``
+        points wrong (clamped to 0-100 %: a belief, not an invalid value)."""
         self.current_offset_a = float(config.get('current_offset_a', 0.0))
         self.current_gain_error = float(config.get('current_gain_error', 0.0))
         self.capacity_error = float(config.get('capacity_error', 0.0))
+        self.deadband_a = float(config.get('deadband_a', abs(self.current_offset_a) + DEFAULT_DEADBAND_A))
         self.recalibrate_at_full = bool(config.get('recalibrate_at_full', True))
         self.recalibrate_at_empty = bool(config.get('recalibrate_at_empty', True))
-        self.capacity_as = design_capacity_ah * 3600.0 * (1.0 + self.capacity_error)   # believed, pack A*s
+        self.capacity_as = true_capacity_ah * 3600.0 * (1.0 + self.capacity_error)   # believed, pack A*s
         soc = true_soc + float(config.get('initial_error', 0.0)) / 100.0
-        if not 0.0 <= soc <= 1.0:
-            raise ValueError('gauge.initial_error = %r is invalid: it puts the gauge at %.1f %% (the pack starts at '
-                             '%.1f %%): the percentage must stay in [0, 100]'
-                             % (config.get('initial_error'), 100.0 * soc, 100.0 * true_soc))
-        self.soc = soc
+        self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
     def count(self, charge_as, dt_s):
-        """The pack took ``charge_as`` (A*s, positive charging) over ``dt_s``: count what the sensor saw."""
+        """The pack took ``charge_as`` (A*s, positive charging) over ``dt_s``: count what the sensor saw
+        (its mean current over the step; nothing within the deadband). A gauge that recalibrates at full
+        counts up to HOLD_BEFORE_FULL only: 100 % is the charge's end."""
+        if not dt_s > 0.0:
+            return
         measured = charge_as * (1.0 + self.current_gain_error) + self.current_offset_a * dt_s
+        if -self.deadband_a * dt_s <= measured <= self.deadband_a * dt_s:
+            return
         soc = self.soc + measured / self.capacity_as
+        if measured > 0.0 and self.recalibrate_at_full and soc > HOLD_BEFORE_FULL:
+            soc = max(self.soc, HOLD_BEFORE_FULL)   # never up past it by counting (nor down by the hold)
         self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
     def on_full(self):
@@ -62,8 +85,8 @@ class CoulombCounter:
         return self.capacity_as / 3600.0
 
 
-def make_gauge(config, design_capacity_ah, true_soc):
+def make_gauge(config, true_capacity_ah, true_soc):
     """The gauge of a config: None for an ideal one (the truth is shown), else a CoulombCounter."""
     if not config or config.get('model', 'ideal') == 'ideal':
         return None
-    return CoulombCounter(config, design_capacity_ah, true_soc)
+    return CoulombCounter(config, true_capacity_ah, true_soc)

@@ -8,7 +8,8 @@ import math
 from collections import namedtuple
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import BatteryModel, Mode, OcvCurve, Status
+from battery_simulator.core.battery_model import Mode, OcvCurve, Status
+from battery_simulator.core.pack import make_model
 
 #: One logged sample: time since the start of the file's first step (s), step number,
 #: status (DCH, CHA, PAU), voltage (V), current (A, negative discharging),
@@ -59,7 +60,7 @@ def simulate(params, samples, state_of_charge, mode=None, max_step_s=10.0):
     charger). Returns the model and the simulated pack voltage (V) and
     temperature (degC) at each sample.
     """
-    model = BatteryModel(params, state_of_charge=state_of_charge, mode=mode or Mode.IDLE)
+    model = make_model(params, state_of_charge=state_of_charge, mode=mode or Mode.IDLE)
     voltages, temperatures = [], []
     previous_s = 0.0
     for sample in samples:
@@ -129,7 +130,7 @@ def charge_time_error(params, rest, run):
     (see charge_runs), starting at the SOC of the rest voltage before it."""
     test = replace(params, ambient_temperature_c=rest.temperature_c)
     start_soc = OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v)
-    simulated_s = time_to_full(BatteryModel(test, state_of_charge=start_soc, mode=Mode.IDLE))
+    simulated_s = time_to_full(make_model(test, state_of_charge=start_soc, mode=Mode.IDLE))
     return simulated_s / (run[-1].time_s - rest.time_s) - 1.0
 
 
@@ -161,7 +162,7 @@ def simulated_charge(params, rest, run, max_step_s=2.0):
     test = replace(params, ambient_temperature_c=rest.temperature_c, charge_current_a=run[0].current_a,
                    termination_current_a=run[-1].current_a)
     start_soc = OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v)
-    model = BatteryModel(test, state_of_charge=start_soc, mode=Mode.CHARGE)
+    model = make_model(test, state_of_charge=start_soc, mode=Mode.CHARGE)
     cc_current = test.charge_current_a
     elapsed, cc_end_s, full_s, trace = 0.0, None, None, []
     for sample in run + [sample._replace(time_s=sample.time_s + 7200.0) for sample in run[-1:]]:

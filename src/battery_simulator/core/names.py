@@ -35,6 +35,8 @@ class SupplyHealth:
     OVERVOLTAGE = 4
     UNSPEC_FAILURE = 5
     COLD = 6
+    WATCHDOG_TIMER_EXPIRE = 7
+    SAFETY_TIMER_EXPIRE = 8
 
 
 #: sensor_msgs/BatteryState.power_supply_technology of a Li-ion pack
@@ -69,6 +71,8 @@ HEALTH_TEXT = {
     SupplyHealth.DEAD: 'Dead',
     SupplyHealth.OVERVOLTAGE: 'Overvoltage',
     SupplyHealth.UNSPEC_FAILURE: 'Failure',
+    SupplyHealth.WATCHDOG_TIMER_EXPIRE: 'Watchdog timer expired',
+    SupplyHealth.SAFETY_TIMER_EXPIRE: 'Safety timer expired',
     SupplyHealth.UNKNOWN: 'Unknown',
 }
 #: the dashboard's status text, by power_supply_status (a driver that is not this simulator)

@@ -22,28 +22,48 @@ can give plus what it can still take,
 
 (1 when the highest group is full, 0 when the lowest is empty, the plain SOC
 when the groups are alike).
+
+The charge ends as the lumped model's does: when the string's current tapers to
+the termination current, the limiting group is called full (the lumped model's
+step to 100 % at the taper's end), and every other group moves by the same
+charge, as the string carries one current: the groups keep their differences,
+so a pack of alike groups cycles exactly as the lumped one, and no group gains
+charge the others did not.
+
+``make_model(params, ...)`` builds the model of a config: this pack when the
+config has a spread, groups or balancing, else the lumped BatteryModel.
 """
 import math
 import random
 from dataclasses import replace
 
 from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.parameters import SPREAD_SIGMAS
 
 
 #: a group this far below its charge voltage is in its CC phase: the string's charge is not tried per group
 CV_MARGIN_V = 0.15
 
 
+def make_model(params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
+    """The model of ``params``: a GroupedPack when the config has a spread, groups or balancing (Part 5),
+    else the lumped BatteryModel (None: the default parameters)."""
+    if params is not None and params.has_groups:
+        return GroupedPack(params, state_of_charge, mode)
+    return BatteryModel(params, state_of_charge, mode)
+
+
 def group_factors(params):
     """[(capacity factor, resistance factor, initial SOC offset)] of the series groups: the config's
-    ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma)."""
+    ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma:
+    parameters.py keeps the spreads below 1/3, so every factor is > 0)."""
     if params.groups:
         return [(float(g.get('capacity_factor', 1.0)), float(g.get('resistance_factor', 1.0)),
                  float(g.get('initial_soc_offset', 0.0))) for g in params.groups]
     draw = random.Random(params.spread_seed)
 
     def factor(spread):
-        return 1.0 + spread * max(-3.0, min(3.0, draw.gauss(0.0, 1.0)))
+        return 1.0 + spread * max(-SPREAD_SIGMAS, min(SPREAD_SIGMAS, draw.gauss(0.0, 1.0)))
     return [(factor(params.capacity_spread), factor(params.resistance_spread), 0.0)
             for _ in range(params.cells_series)]
 
@@ -60,7 +80,7 @@ def group_params(params, capacity_factor, resistance_factor):
 
 
 class GroupedPack(BatteryModel):
-    """A pack of ``cells_series`` differing groups (BatteryModel returns one for such a config)."""
+    """A pack of ``cells_series`` differing groups (make_model returns one for such a config)."""
 
     def __init__(self, params, state_of_charge=1.0, mode=Mode.DISCHARGE):
         self.groups = [BatteryModel(group_params(params, capacity, resistance),
@@ -166,26 +186,17 @@ class GroupedPack(BatteryModel):
         groups = self.groups
         cell_demand = demand / p.cells_parallel
         if cell_demand > 0.0:
-            current = self._string_charge_current(dt_s, demand)
+            current = self._charge_groups(dt_s, demand)   # the groups charged, if it is > 0
         elif cell_demand < 0.0:
             current = self._discharge_current(cell_demand) * p.cells_parallel
         else:
             current = 0.0
             if self.status not in (Status.FULL, Status.EMPTY):
                 self.status = Status.NOT_CHARGING
-        # the groups follow the string (their own cut-off and charger fault never act: the pack's do)
-        status = Status.CHARGING if current > 0.0 else Status.DISCHARGING
-        if current > 0.0 and self.params.balancing:
-            bleeds = self._bleeds(current)
-            for group, bleed in zip(groups, bleeds):
-                group.status = status
-                group._advance(dt_s, current - bleed)
-                if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
-                    self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
-            self.bleeding = [bool(b) for b in bleeds]
-        else:
+        if not current > 0.0:
+            # the groups follow the string (their own cut-off and charger fault never act: the pack's do)
             for group in groups:
-                group.status = status
+                group.status = Status.DISCHARGING
                 group._advance(dt_s, current)
             if any(self.bleeding):
                 self.bleeding = [False] * len(groups)
@@ -195,10 +206,17 @@ class GroupedPack(BatteryModel):
         if current > 0.0:
             self.status = Status.CHARGING
 
-    def _string_charge_current(self, dt_s, demand):
-        """The charge current the highest group allows (CC-CV of every group; the least wins), or 0 and
-        FULL at the taper's end. In the CC phase every group takes the demand: the groups are tried
-        (and their steps undone) only once one of them is near its charge voltage."""
+    def _charge_groups(self, dt_s, demand):
+        """Charge every group over ``dt_s`` at the current the most limiting group's CC-CV allows (the
+        least of theirs: the highest group is held at its charge voltage), less a bleed where balancing
+        acts; return it. 0 (nothing stepped) when no charge flows, and FULL at the taper's end.
+
+        Each group's current is computed once, in its own step: far from the charge voltage (CC) every
+        group takes the demand; near it the highest group is tried (its step kept) and the others step
+        at its current, capped by their own CC-CV. Only when one of them allows less (it limits, not
+        the highest) are they all tried and stepped again. A group steps with the string's demand as
+        the lumped model does (its resistances along that current), its current capped at the string's:
+        alike groups take the lumped model's very step."""
         if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
             self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
             return 0.0
@@ -206,32 +224,92 @@ class GroupedPack(BatteryModel):
         if demand / p.cells_parallel > p.cell_max_charge_current_a:
             self._disconnect(CutOff.OVER_CURRENT, Status.NOT_CHARGING)
             return 0.0
-        self._voltages = voltages = [g.cell_voltage_v for g in self.groups]   # _bleeds reads them too
-        if max(voltages) < p.cell_charge_voltage_v - CV_MARGIN_V:
-            return demand   # the CC phase: far from every group's charge voltage
-        allowed = []
-        for group in self.groups:   # each group's CC-CV current for this step, tried and undone
-            saved = group._state()
-            group.status = Status.CHARGING
-            group._advance(dt_s, demand)
-            allowed.append(group.cell_current_a * p.cells_parallel if group.status is Status.CHARGING else 0.0)
-            group._restore(saved)
-        current = min(allowed)
+        groups = self.groups
+        self._voltages = voltages = [g.cell_voltage_v for g in groups]   # _bleeds reads them too
+        highest = max(voltages)
+        if highest < p.cell_charge_voltage_v - CV_MARGIN_V:
+            return demand if self._charge_at(dt_s, demand, demand, {}) else self._charge_tried(dt_s, demand)
+        first = voltages.index(highest)
+        tried = {first: self._try(first, dt_s, demand)}
+        current = tried[first][0]
         if current < demand and current <= p.pack_termination_current_a:
-            limiting = self.groups[allowed.index(current)]
-            limiting._become_full()   # the highest group is full: the charge ends, the others short of it
-            for group in self.groups:
-                group.cell_current_a = 0.0
-            self.status = Status.FULL
+            self._end_charge(groups[first])
             return 0.0
+        if current > 0.0 and self._charge_at(dt_s, demand, current, tried):
+            return current
+        return self._charge_tried(dt_s, demand)
+
+    def _try(self, index, dt_s, demand):
+        """(the pack current group ``index``'s CC-CV allows over ``dt_s`` at ``demand``, its state after
+        that step); the group is left as it was."""
+        group = self.groups[index]
+        saved = group._state()
+        group.status = Status.CHARGING
+        group._advance(dt_s, demand)
+        allowed = group.cell_current_a * self.params.cells_parallel if group.status is Status.CHARGING else 0.0
+        tried = (allowed, group._state())
+        group._restore(saved)
+        return tried
+
+    def _charge_tried(self, dt_s, demand):
+        """Every group tried at ``demand``: the least current wins (0 and FULL at the taper's end)."""
+        tried = {index: self._try(index, dt_s, demand) for index in range(len(self.groups))}
+        allowed = [tried[index][0] for index in range(len(self.groups))]
+        current = min(allowed)
+        if current < demand and current <= self.params.pack_termination_current_a:
+            self._end_charge(self.groups[allowed.index(current)])
+            return 0.0
+        if current <= 0.0:
+            return 0.0
+        self._charge_at(dt_s, demand, current, tried, check=False)
         return current
+
+    def _charge_at(self, dt_s, demand, current, tried, check=True):
+        """Step every group at the string's ``current`` (less its bleed): a tried group at that very
+        current keeps its tried step. With ``check``, False (every group as it was) as soon as a group's
+        own CC-CV allows less: it, not the string, limits."""
+        p = self.params
+        groups = self.groups
+        bleeds = self._bleeds(current) if p.balancing else None
+        starts = [g._state() for g in groups] if check else None
+        for index, group in enumerate(groups):
+            bleed = bleeds[index] if bleeds else 0.0
+            limit = (current - bleed) / p.cells_parallel
+            done = tried.get(index)
+            if done is not None and done[0] == current and not bleed:
+                group._restore(done[1])
+                group.cell_current_a = limit
+                continue
+            group.status = Status.CHARGING
+            group._advance(dt_s, demand, limit)
+            if check and (group.status is not Status.CHARGING or group.cell_current_a < limit * (1.0 - 1e-12)):
+                for each, start in zip(groups, starts):
+                    each._restore(start)
+                return False
+            if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
+                self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
+        if bleeds:
+            self.bleeding = [bool(b) for b in bleeds]
+        elif any(self.bleeding):
+            self.bleeding = [False] * len(groups)
+        return True
+
+    def _end_charge(self, limiting):
+        """The taper has ended at ``limiting``: it is full (the lumped model's step to 100 % at the taper's
+        end), and that step's charge goes through every other group too (one string, one current), so
+        the groups keep their differences and no charge appears in one group alone."""
+        top_up_as = (1.0 - limiting.state_of_charge) * limiting._capacity_as   # per cell
+        for group in self.groups:
+            soc = group.state_of_charge + top_up_as / group._capacity_as
+            group._become_full(1.0 if group is limiting or soc > 1.0 - 1e-12 else soc)
+        self.status = Status.FULL
 
     def _bleeds(self, current):
         """The bleed current of each group now (passive balancing while charging), A."""
         balancing = self.params.balancing
         if not balancing or current <= 0.0:
             return [0.0] * len(self.groups)
-        voltages = self._voltages   # as the step began (_string_charge_current)
+        voltages = self._voltages   # as the step began (_charge_groups)
         if max(voltages) < balancing['start_voltage_v']:
             return [0.0] * len(self.groups)
         lowest = min(voltages)
@@ -245,9 +323,15 @@ class GroupedPack(BatteryModel):
         group.temperature_c += rise * (1.0 - math.exp(-dt_s * p.cell_heat_transfer_w_per_k
                                                       / p.cell_heat_capacity_j_per_k))
 
-    def _become_full(self):   # only the groups end a charge (_string_charge_current)
+    def _become_full(self, state_of_charge=1.0):   # only the groups end a charge (_end_charge)
         self.status = Status.FULL
         self.cell_current_a = 0.0
+
+    def _disconnect(self, cut_off, status):
+        """As the lumped pack's: no current flows, in any group (their voltages relaxed from this step on)."""
+        for group in self.groups:
+            group.cell_current_a = 0.0
+        super()._disconnect(cut_off, status)
 
     # -- inputs -------------------------------------------------------------------------------
 

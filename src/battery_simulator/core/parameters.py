@@ -147,7 +147,7 @@ class BatteryParameters:
     #: where the numbers come from
     source: str = ''
     #: a pack of differing cells (Part 5): relative standard deviation of the series groups' capacity and
-    #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model)
+    #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model); below MAX_SPREAD
     capacity_spread: float = 0.0
     resistance_spread: float = 0.0
     spread_seed: int = 0
@@ -158,9 +158,20 @@ class BatteryParameters:
     #: the diagnostics warn when the cell voltages differ by more than this, V
     imbalance_warn_v: float = 0.05
     #: the fuel gauge: None or {model: ideal} (the percentage is the truth) or {model: coulomb_counter,
-    #: current_offset_a, current_gain_error, capacity_error, initial_error, recalibrate_at_full,
+    #: current_offset_a, current_gain_error, capacity_error, initial_error, deadband_a, recalibrate_at_full,
     #: recalibrate_at_empty}
     gauge: dict = None
+    #: a full pack on the dock is held full (Part 7): once the charge has ended the connected charger tops
+    #: up what the robot's own load draws (load_current_a, load_power_w, payloads, motion) as it draws it,
+    #: so the pack stays at 100 % and battery_status shows that current as charge (status FULL), as docks
+    #: that power the robot through its pack do (opennav_docking's SimpleChargingDock calls > 0.5 A
+    #: charging). false: the charger switches off at Full and a full pack on the dock shows 0 A
+    charger_holds_full: bool = True
+    #: how a driver's BatteryState reads, to test a consumer against drivers that invert conventions:
+    #: None or {invert_current_sign: false, percentage_scale: 1}; true / 100 give Gazebo's
+    #: invert_current_sign and 0-100 percentages on battery_status (the model and battery_simulator/state
+    #: keep the package's own conventions)
+    conventions: dict = None
 
     def __post_init__(self):
         validate(self)
@@ -291,21 +302,29 @@ def validate(params):
     _validate_currents(params)
     _validate_pack(params)
     _validate_gauge(params)
+    _validate_conventions(params)
 
 
 GROUP_KEYS = ('capacity_factor', 'resistance_factor', 'initial_soc_offset')
 BALANCING_KEYS = ('current_a', 'start_voltage_v', 'threshold_v')
 GAUGE_KEYS = ('model', 'current_offset_a', 'current_gain_error', 'capacity_error', 'initial_error',
-              'recalibrate_at_full', 'recalibrate_at_empty')
+              'deadband_a', 'recalibrate_at_full', 'recalibrate_at_empty')
+#: the spreads are drawn from a normal law clipped to +-SPREAD_SIGMAS: below 1 / SPREAD_SIGMAS every drawn
+#: factor, 1 + spread x draw, stays > 0
+SPREAD_SIGMAS = 3.0
+MAX_SPREAD = 1.0 / SPREAD_SIGMAS
 GAUGE_MODELS = ('ideal', 'coulomb_counter')
+#: conventions: each key with its default and the values allowed
+CONVENTION_KEYS = {'invert_current_sign': (False, (False, True)), 'percentage_scale': (1, (1, 100))}
 
 
 def _validate_pack(params):
     """The groups of a pack of differing cells, and its balancing."""
     for name in ('capacity_spread', 'resistance_spread'):
         value = getattr(params, name)
-        if not (is_number(value) and 0.0 <= value < 1.0):
-            _fail(name, value, 'a relative standard deviation in [0, 1)')
+        if not (is_number(value) and 0.0 <= value < MAX_SPREAD):
+            _fail(name, value, 'a relative standard deviation in [0, 1/%g) (its draws reach %g sigma: a larger '
+                  'one can draw a factor <= 0)' % (SPREAD_SIGMAS, SPREAD_SIGMAS))
     if not (isinstance(params.spread_seed, int) and not isinstance(params.spread_seed, bool)):
         _fail('spread_seed', params.spread_seed, 'a whole number')
     if not isinstance(params.groups, (tuple, list)):
@@ -348,7 +367,8 @@ def _validate_gauge(params):
         _fail('gauge', gauge, 'a mapping with model (%s) and %s' % (' or '.join(GAUGE_MODELS),
                                                                     ', '.join(GAUGE_KEYS[1:])))
     for key, low, high in (('current_offset_a', -100.0, 100.0), ('current_gain_error', -0.5, 0.5),
-                           ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0)):
+                           ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0),
+                           ('deadband_a', 0.0, 100.0)):
         if key in gauge and not (is_number(gauge[key]) and low <= gauge[key] <= high):
             _fail('gauge.%s' % key, gauge[key], 'a number in [%g, %g]' % (low, high))
     for key in ('recalibrate_at_full', 'recalibrate_at_empty'):
@@ -356,6 +376,21 @@ def _validate_gauge(params):
             _fail('gauge.%s' % key, gauge[key], 'true or false')
     if gauge['model'] == 'ideal' and set(gauge) != {'model'}:
         _fail('gauge', gauge, 'only {model: ideal} for an ideal gauge (its errors belong to coulomb_counter)')
+
+
+def _validate_conventions(params):
+    if not isinstance(params.charger_holds_full, bool):
+        _fail('charger_holds_full', params.charger_holds_full, 'true or false')
+    conventions = params.conventions
+    if conventions is None:
+        return
+    if not isinstance(conventions, dict) or set(conventions) - set(CONVENTION_KEYS):
+        _fail('conventions', conventions, 'a mapping of %s' % ', '.join(CONVENTION_KEYS))
+    for key, (_, allowed) in CONVENTION_KEYS.items():
+        value = conventions.get(key, CONVENTION_KEYS[key][0])
+        if not any(value == a and type(value) is type(a) for a in allowed) \
+                and not (key == 'percentage_scale' and isinstance(value, float) and value in allowed):
+            _fail('conventions.%s' % key, value, ' or '.join(str(a).lower() for a in allowed))
 
 
 def _validate_currents(params):
@@ -475,6 +510,10 @@ def from_mapping(values, base=None, origin='parameters'):
         if key in _TABLES and isinstance(value, list):
             value = tuple(number_from_text(v) for v in value)
         elif key == 'groups' and isinstance(value, list):
+            if not value:   # not a lumped pack said another way: a list that lost its groups
+                raise ParameterError('%s: parameter groups = [] is invalid: must be a list of {%s}, one per '
+                                     'series group (leave groups out for a lumped pack)'
+                                     % (origin, ', '.join(GROUP_KEYS)))
             value = tuple(value)
         elif key in _NUMBERS:
             value = number_from_text(value)

@@ -24,7 +24,8 @@ import os
 import sys
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
 from battery_simulator.core.prediction import predict
 
@@ -88,7 +89,7 @@ def _read_rows(path, reader):
 
 def replay(params, profile, state_of_charge=1.0, max_step_s=1.0):
     """Yield an output row (see OUTPUT_COLUMNS) at each profile time."""
-    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    model = make_model(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
     yield _row(profile[0][0], model)
     for (start_s, kind, value), (end_s, _, _) in zip(profile, profile[1:]):
         if value == 0.0:
@@ -121,7 +122,7 @@ def charge(params, charge_current_a, state_of_charge=0.0):
     except ParameterError as error:
         raise ParameterError('--charge %g: %s' % (charge_current_a, error)) from None
     rows = []
-    model = BatteryModel(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
+    model = make_model(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
     result = predict(model, (), charge_to_percentage=100.0, observe=lambda time_s, m: rows.append(_row(time_s, m)))
     return rows, result.charge_time_s
 

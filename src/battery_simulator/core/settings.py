@@ -5,6 +5,7 @@ Both front ends read them: the rospy nodes as private parameters
 with a descriptor built from ``description`` and ``allowed``). A bad value
 stops a node with one line: ``parameter NAME = VALUE is invalid: must be ALLOWED``.
 """
+import re
 from collections import namedtuple
 
 from battery_simulator.core.parameters import default_config_path, is_number
@@ -21,6 +22,12 @@ def _fraction(value):
     return is_number(value) and 0.0 <= value <= 1.0
 
 
+#: the largest time_scale: at the default 10 Hz one update then spans 1000 s of battery (a quarter of a
+#: discharge); beyond it a charge, a discharge or the pack's whole life would pass in a few updates, with
+#: no feedback, alarm or dock in between
+MAX_TIME_SCALE = 10000.0
+
+
 def _rate(value):
     return is_number(value) and 0 < value <= 1000
 
@@ -29,7 +36,9 @@ def _rate(value):
 BATTERY_SETTINGS = (
     Setting('config', str(default_config_path()), lambda v: isinstance(v, str) and v != '',
             'a path to a YAML file', 'battery config: a preset plus overrides (YAML)', False),
-    Setting('time_scale', 22.0, lambda v: is_number(v) and v > 0, 'a number > 0',
+    Setting('time_scale', 22.0, lambda v: is_number(v) and 0 < v <= MAX_TIME_SCALE,
+            'a number in (0, %g] (one update of a faster battery would span more than a quarter of a discharge)'
+            % MAX_TIME_SCALE,
             'simulated seconds per wall second (ignored under use_sim_time)', True),
     Setting('update_rate', 10.0, _rate, 'a number in (0, 1000] Hz', 'model updates per second', False),
     Setting('initial_percentage', 100.0, lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]',
@@ -42,6 +51,14 @@ BATTERY_SETTINGS = (
             'under use_sim_time: a forward jump of ROS time larger than this between two updates restarts '
             'the time base (nothing drained)', False),
 )
+#: a ROS name, relative or absolute, of letters, digits, underscores and slashes (ROS 1 and ROS 2 alike)
+_TOPIC_NAME = re.compile(r'^/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
+
+
+def _topic_or_empty(value):
+    return isinstance(value, str) and (value == '' or _TOPIC_NAME.match(value) is not None)
+
+
 #: battery_state_pub's settings
 PUBLISHER_SETTINGS = (
     Setting('rate', 1.0, _rate, 'a number in (0, 1000] Hz', 'battery_status publications per second', False),
@@ -53,7 +70,15 @@ PUBLISHER_SETTINGS = (
             'battery_critical below this (0-1, at most low_percentage)', False),
     Setting('hysteresis', 0.05, _fraction, 'a fraction in [0, 1]',
             'an event clears above its threshold plus this (0-1)', False),
+    Setting('battery_state_topic', 'battery_state', _topic_or_empty, 'a topic name (or empty: none)',
+            'the same BatteryState also on this topic, relative to the robot (opennav_docking reads '
+            'battery_state; empty: battery_status only)', False),
 )
+
+
+def setting(name):
+    """The Setting named ``name`` (battery or publisher)."""
+    return next(s for s in BATTERY_SETTINGS + PUBLISHER_SETTINGS if s.name == name)
 
 
 def check_setting(setting, value, shown_name=None):

@@ -1,12 +1,51 @@
 """A battery's state in a JSON file (``state_file``): read at start, written atomically (no ROS import)."""
 import json
 import os
+import tempfile
 import time
+
+#: a save that fails (a full disk) is reported at most this often
+WRITE_ERROR_PERIOD_S = 60.0
+
+
+class StateFileError(ValueError):
+    """A ``state_file`` that cannot be used: the reason (the caller names the parameter and the path)."""
+
+
+def check_state_file(path, fleet=False):
+    """Check at start that ``path`` can hold a state file (a fleet's when ``fleet``): no file yet, an empty
+    one, or a state file of that kind, in a directory it can be written to. Else StateFileError: a file
+    that exists and is not a state file is never written over, and an unwritable path is said once."""
+    if os.path.isdir(path):
+        raise StateFileError('it is a directory')
+    if os.path.exists(path) and os.path.getsize(path) > 0:
+        kind = "a fleet's state file" if fleet else 'a state file'
+        try:
+            saved = read_state_file(path)
+        except (OSError, ValueError) as error:
+            raise StateFileError('the file exists and is not %s (%s); it is never written over: give another '
+                                 'path, or move that file away' % (kind, str(error).splitlines()[0])) from None
+        if not is_state(saved, fleet):
+            raise StateFileError('the file exists and is not %s; it is never written over: give another path, '
+                                 'or move that file away' % kind)
+    try:
+        descriptor, probe = tempfile.mkstemp(prefix='.state_probe_', dir=os.path.dirname(os.path.abspath(path)))
+        os.close(descriptor)
+        os.remove(probe)
+    except OSError as error:
+        raise StateFileError('it cannot be written (%s)' % (error.strerror or error)) from None
+
+
+def is_state(saved, fleet=False):
+    """Whether ``saved`` (a JSON file's content) is a state file: one battery's, or a fleet's."""
+    if fleet:
+        return isinstance(saved, dict) and isinstance(saved.get('robots'), dict)
+    return isinstance(saved, dict) and 'state_of_charge' in saved
 
 
 def read_state_file(path):
     """The saved state in ``path``, or None when there is no file; OSError/ValueError when it cannot be read."""
-    if not path or not os.path.exists(path):
+    if not path or not os.path.exists(path) or os.path.getsize(path) == 0:
         return None
     with open(path, encoding='utf-8') as stream:
         return json.load(stream)
@@ -35,6 +74,7 @@ class StateFileKeeper:
         self._log = log or (lambda text: None)
         self._clock = clock
         self._saved = (None, -SAVE_EVERY_S)   # (level, time) of the last write
+        self._error_at = -WRITE_ERROR_PERIOD_S
 
     def load(self):
         """The saved state, or None (no file); a file that cannot be read is reported and ignored."""
@@ -57,7 +97,7 @@ class StateFileKeeper:
             write_state_file(self.path, state)
             self._saved = (100.0 * state['state_of_charge'], self._clock())
         except OSError as error:
-            self._log('cannot write state file %s: %s' % (self.path, error))
+            _write_failed(self, error)
 
 
 class FleetStateFile:
@@ -70,6 +110,7 @@ class FleetStateFile:
         self._clock = clock
         self._states = {}
         self._written_at = -FLEET_SAVE_PERIOD_S
+        self._error_at = -WRITE_ERROR_PERIOD_S
         try:
             saved = read_state_file(path)
             self._saved = saved.get('robots', {}) if isinstance(saved, dict) else {}
@@ -87,7 +128,15 @@ class FleetStateFile:
             try:
                 write_state_file(self.path, {'robots': self._states})
             except OSError as error:
-                self._log('cannot write state file %s: %s' % (self.path, error))
+                _write_failed(self, error)
+
+
+def _write_failed(keeper, error):
+    """Report a failed save (a full disk, a directory removed) at most every WRITE_ERROR_PERIOD_S."""
+    now = keeper._clock()
+    if now - keeper._error_at >= WRITE_ERROR_PERIOD_S:
+        keeper._error_at = now
+        keeper._log('cannot write state file %s: %s' % (keeper.path, error))
 
 
 class _RobotKeeper:

@@ -12,9 +12,11 @@ A state is anything with ``percentage``, ``power_supply_status``,
 ``sensor_dropout`` and ``message()`` (the BatterySimState message, built at the
 first need: a fleet host's states are mostly never published).
 """
+import copy
 from collections import namedtuple
 
 from battery_simulator.core import diagnostics
+from battery_simulator.core.battery import apply_conventions
 from battery_simulator.core.latest_state import LatestState
 from battery_simulator.core.level_alarm import LevelAlarm
 
@@ -53,13 +55,21 @@ class StatusRules:
 
     def to_publish(self):
         """The BatteryState message to publish now (to be stamped), or None: no state yet, or a sensor
-        dropout (said in the log, throttled); the stale rule's lines too."""
+        dropout (said in the log, throttled); the stale rule's lines too. In the config's ``conventions``
+        (a driver emulated: the current's sign inverted, percentage 0-100), on a copy: the alarms and the
+        diagnostics keep reading the package's conventions."""
         latest = self.latest_state.to_publish()
         if latest is None:
             self._published_status = None
             return None
-        battery = latest.message().battery
+        state = latest.message()
+        battery = state.battery
         self._published_status = battery.power_supply_status
+        conventions = conventions_of(state)
+        if conventions:
+            battery = copy.deepcopy(battery)
+            battery.current, battery.percentage = apply_conventions(battery.current, battery.percentage,
+                                                                    conventions)
         return battery
 
     def latest_battery(self):
@@ -79,3 +89,14 @@ class StatusRules:
                                                    self.alarms['critical'].threshold)
         return DiagnosticReport(level, message, msg.battery.serial_number or 'none',
                                 list(diagnostics.battery_values(msg)))
+
+
+def conventions_of(state):
+    """The conventions a BatterySimState carries ({} for the package's own: sign as REP 147, percentage 0-1)."""
+    conventions = {}
+    if getattr(state, 'invert_current_sign', False):
+        conventions['invert_current_sign'] = True
+    scale = getattr(state, 'percentage_scale', 0.0)
+    if scale and scale != 1.0:
+        conventions['percentage_scale'] = scale
+    return conventions

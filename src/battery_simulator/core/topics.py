@@ -10,6 +10,8 @@ STATE_TOPIC = 'battery_simulator/state'
 STATUS_SENT = 'battery_simulator/status_sent'
 #: sensor_msgs/BatteryState, published by battery_state_pub
 BATTERY_STATUS = 'battery_status'
+#: the same BatteryState under the name opennav_docking reads (battery_state_pub's ``battery_state_topic``)
+BATTERY_STATE = 'battery_state'
 BATTERY_LOW = 'battery_low'
 BATTERY_CRITICAL = 'battery_critical'
 CMD_VEL = 'cmd_vel'
@@ -24,3 +26,8 @@ PREDICT = 'battery_simulator/predict'
 
 #: sensor_msgs/BatteryState.power_supply_status by BatterySimState.charging_state
 CHARGING_STATES = ('Charging', 'Discharging', 'Full', 'Not Charging', 'Empty')
+
+
+def robot_topic(namespace, name):
+    """``name`` under a robot's ``namespace`` ('' or '/robot1/', as the nodes hold it); an absolute name stays."""
+    return name if name.startswith('/') else namespace + name

@@ -24,7 +24,8 @@ act on the model through the same lock.
     ``drive_power_w_per_mps``, ``turn_power_w_per_radps``
 
 :Subscribes:
-  - ``cmd_vel`` (geometry_msgs/Twist): motion load while discharging
+  - ``cmd_vel`` (geometry_msgs/Twist or TwistStamped, as each publisher sends it): motion load while
+    discharging
   - ``charger_contact`` (std_msgs/Bool): a change connects (true) or disconnects the charger
   - ``battery_simulator/status_sent`` (std_msgs/UInt64): battery_state_pub has sent a service's change
 
@@ -32,17 +33,9 @@ act on the model through the same lock.
   - ``battery_simulator/state`` (battery_simulator/BatterySimState, latched): after every update
 
 :Services:
-  - ``battery_simulator/set_load`` (battery_simulator/SetLoad): named payload loads
-  - ``battery_simulator/set_charging`` (std_srvs/SetBool): as a charger contact change
-  - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health
-  - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
-  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): core/names.py FAULTS
-  - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after
-    it) would do, from a copy of the model (core/prediction.py), computed in the process's prediction
-    workers (prediction_service.py); changes nothing, so it replies once computed
-  Each other service (and dynamic_reconfigure) replies once battery_state_pub has sent the
-  state it changed on battery_status (publish_now, acknowledged on status_sent; without
-  a battery_state_pub, once it is published), so the next battery_status shows the change.
+  - ``battery_simulator/set_load``, ``set_charging``, ``set_state``, ``reset``, ``inject_fault``, ``predict``
+    (ros1/services.py). Each but predict replies once battery_state_pub has sent the state it changed on
+    battery_status (publish_now, acknowledged on status_sent), so the next battery_status shows the change.
 """
 import threading
 import time
@@ -50,7 +43,6 @@ from contextlib import contextmanager
 
 import actionlib
 import rospy
-from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery,
@@ -61,7 +53,7 @@ from battery_simulator.core.battery_model import Mode
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros1.cached_param import CachedParam
 from battery_simulator.ros1.log import RobotLog
-from battery_simulator.ros1.messages import SimState
+from battery_simulator.ros1.messages import SimState, twist_of_any
 from battery_simulator.ros1.services import BatteryServices
 from battery_simulator.ros1.startup import clock_publishers
 
@@ -148,7 +140,7 @@ class BatterySimServer:
 
     def start(self):
         ns = self._ns
-        self._subscribers = [rospy.Subscriber(ns + topics.CMD_VEL, Twist, self._on_cmd_vel, queue_size=1),
+        self._subscribers = [rospy.Subscriber(ns + topics.CMD_VEL, rospy.AnyMsg, self._on_cmd_vel, queue_size=1),
                              rospy.Subscriber(ns + topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
         if not self._state_listeners:   # battery_state_pub is another process: it acknowledges on a topic
             self._sent_sub = rospy.Subscriber(ns + topics.STATUS_SENT, UInt64,
@@ -313,7 +305,13 @@ class BatterySimServer:
 
     # -- inputs (subscriber and service threads) ---------------------------------
 
-    def _on_cmd_vel(self, twist):
+    def _on_cmd_vel(self, raw):
+        """A cmd_vel of either type (core/velocity.py): its connection says which."""
+        twist = twist_of_any(raw)
+        if twist is None:
+            self._log.error_throttle(10.0, '%s: type %s ignored (Twist or TwistStamped)', self._ns + topics.CMD_VEL,
+                                     raw._connection_header.get('type'))
+            return
         try:
             self.battery.on_cmd_vel(twist.linear.x, twist.angular.z)
         except BatteryError as error:

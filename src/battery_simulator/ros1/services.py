@@ -1,9 +1,20 @@
 """The services and live settings of one BatterySimServer (ros1/action_server.py): set_load, set_charging,
 set_state, reset, inject_fault, predict and dynamic_reconfigure. Each change acts on the battery through the
 server's ``service_change()`` (its lock; the reply waits until battery_state_pub has sent the change), and a
-refusal replies success false with core/battery.py's reason."""
-from dynamic_reconfigure.server import Server as ReconfigureServer
+refusal replies success false with core/battery.py's reason.
+
+:Services (under the robot's namespace):
+  - ``battery_simulator/set_load`` (battery_simulator/SetLoad): named payload loads
+  - ``battery_simulator/set_charging`` (std_srvs/SetBool): as a charger contact change
+  - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health, gauge error
+  - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
+  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): core/names.py FAULTS
+  - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after it) would
+    do, from a copy of the model (core/prediction.py), computed in the process's prediction workers
+    (prediction_service.py); changes nothing, so it replies once computed
+"""
 import rospy
+from dynamic_reconfigure.server import Server as ReconfigureServer
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
 from battery_simulator.cfg import BatterySimConfig

@@ -17,11 +17,13 @@ server is back.
   - ``~low_percentage`` (float, 0..1): battery_low below this (default 0.20)
   - ``~critical_percentage`` (float, 0..1, <= low): battery_critical below this (default 0.05)
   - ``~hysteresis`` (float, 0..1): an event clears above its threshold plus this (default 0.05)
+  - ``~battery_state_topic`` (str): the same BatteryState also on this topic, relative to the robot
+    (default battery_state, what opennav_docking reads; empty: battery_status only)
 
 :Subscribes:
   - ``battery_simulator/state`` (battery_simulator/BatterySimState): from battery_sim_server.py
 :Publishes:
-  - ``battery_status`` (sensor_msgs/BatteryState)
+  - ``battery_status`` (sensor_msgs/BatteryState), and the same on ``battery_state`` (``~battery_state_topic``)
   - ``battery_low``, ``battery_critical`` (std_msgs/Bool, latched)
   - ``battery_simulator/status_sent`` (std_msgs/UInt64): a service's change is out (the server then replies)
   - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): status "<node>: Battery"
@@ -65,7 +67,7 @@ class BatteryStatePublisher:
     """
 
     def __init__(self, namespace, node_name, rate, frame_id, stale_timeout, low_percentage, critical_percentage,
-                 hysteresis, changes, log=None):
+                 hysteresis, changes, battery_state_topic='', log=None):
         self.rate = rate
         self._frame_id = frame_id
         self._diagnostic_name = node_name.lstrip('/') + DIAGNOSTIC_SUFFIX
@@ -74,7 +76,10 @@ class BatteryStatePublisher:
         self._lock = threading.Lock()
         self._rules = StatusRules(stale_timeout, low_percentage, critical_percentage, hysteresis, self._log,
                                   namespace + topics.STATE_TOPIC, 'the battery_simulator server')
-        self._pub = rospy.Publisher(namespace + topics.BATTERY_STATUS, BatteryState, queue_size=10)
+        self._pubs = [rospy.Publisher(namespace + topics.BATTERY_STATUS, BatteryState, queue_size=10)]
+        if battery_state_topic:   # the same message for the readers of battery_state (opennav_docking)
+            self._pubs.append(rospy.Publisher(topics.robot_topic(namespace, battery_state_topic), BatteryState,
+                                              queue_size=10))
         self._alarm_pubs = {name: rospy.Publisher(namespace + topic, Bool, queue_size=1, latch=True)
                             for name, topic in (('low', topics.BATTERY_LOW), ('critical', topics.BATTERY_CRITICAL))}
         for publisher in self._alarm_pubs.values():
@@ -117,7 +122,8 @@ class BatteryStatePublisher:
                 return
             msg.header.stamp = rospy.Time.now()
             msg.header.frame_id = self._frame_id
-            self._pub.publish(msg)
+            for publisher in self._pubs:
+                publisher.publish(msg)   # rospy serializes nothing for a topic without subscribers
 
     def diagnostic_status(self):
         """The "<node>: Battery" diagnostic status (keys as rqt_robot_monitor and dashboards expect)."""

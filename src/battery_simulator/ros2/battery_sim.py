@@ -12,8 +12,9 @@ live settings) and ``battery_state_pub`` (``battery_status``, ``battery_low``,
   - ``time_scale`` (float > 0, live): simulated seconds per wall second (default 22; ignored under use_sim_time)
   - ``update_rate`` (float, Hz, read-only): model updates per second (default 10)
   - ``initial_percentage`` (float 0-100, read-only): charge at start (default 100)
-  - ``state_file`` (str, read-only): JSON file the state is saved to and resumed from
-  - ``charging`` (bool, live): the mode; a goal writes it
+  - ``state_file`` (str, read-only): JSON file the state is saved to and resumed from (a file that exists
+    and is not a state file, or a path that cannot be written, stops the node at start with one line)
+  - ``charging`` (bool, or 1 / 0, live): the mode; a goal writes it
   - ``load_current_a``, ``load_power_w``, ``charge_current_a``, ``ambient_temperature_c``,
     ``drive_power_w_per_mps``, ``turn_power_w_per_radps`` (float, live): override the config
 :Parameters of battery_state_pub:
@@ -21,22 +22,23 @@ live settings) and ``battery_state_pub`` (``battery_status``, ``battery_low``,
 """
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rcl_interfaces.msg import ParameterDescriptor
 
-from battery_simulator.core.battery import LIVE_PARAMETERS, Battery, BatteryError
+from battery_simulator.core.battery import LIVE_PARAMETERS, Battery, BatteryError, parse_mode
 from battery_simulator.core.battery_log import resume_battery, say_ready
 from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.core.settings import (BATTERY_SETTINGS, PUBLISHER_SETTINGS, Setting, SettingError,
                                              check_publisher_settings)
-from battery_simulator.core.state_file import StateFileKeeper
-from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer
+from battery_simulator.core.state_file import StateFileError, StateFileKeeper, check_state_file
+from battery_simulator.ros2 import services
+from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer, mode_refusal
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (StartupError, declare_bool, declare_settings, descriptor, ending_quietly,
-                                            exit_on_startup_error, parameter_name, spin)
+from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, descriptor, ending_quietly,
+                                            exit_on_startup_error, init, parameter_name, run)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 DIAGNOSTIC_PERIOD_S = 0.5
@@ -67,10 +69,26 @@ def load_config(node, path):
 
 
 def declare_mode(node, default=False):
-    """Declare ``charging``, the mode (its start-up value is the initial mode)."""
-    return bool(declare_bool(node, MODE_PARAMETER, default,
-                             'the mode (MyRobot/BatteryStatus on ROS 1): true charges, false discharges; '
-                             'a goal writes it, a change against an active goal aborts it'))
+    """Declare ``charging``, the mode (its start-up value is the initial mode): true / false or 1 / 0 (ROS 1's
+    MyRobot/BatteryStatus values, which `-p charging:=1` gives as an integer), anything else one line."""
+    value = node.declare_parameter(MODE_PARAMETER, default, ParameterDescriptor(
+        description='the mode (MyRobot/BatteryStatus on ROS 1): true (1) charges, false (0) discharges; '
+                    'a goal writes it, a change against an active goal aborts it',
+        additional_constraints='true, false, 1 or 0', dynamic_typing=True)).value
+    if value is None or parse_mode(value) is None:
+        raise StartupError('parameter %s' % mode_refusal(value).replace(
+            MODE_PARAMETER, parameter_name(node, MODE_PARAMETER), 1))
+    return bool(value)
+
+
+def check_state_path(node, path, fleet=False):
+    """StartupError (one line) for a ``state_file`` that exists and is not a state file, or cannot be written."""
+    if path:
+        try:
+            check_state_file(path, fleet)
+        except StateFileError as error:
+            raise StartupError('parameter %s = %r is invalid: %s' % (parameter_name(node, 'state_file'), path,
+                                                                    error)) from None
 
 
 def declare_live(node, battery):
@@ -108,6 +126,7 @@ class OneBattery:
         charging = declare_mode(battery_node)
         publisher = read_publisher_settings(status_node)
         params = load_config(battery_node, settings['config'])
+        check_state_path(battery_node, settings['state_file'])
         self.battery = make_battery(battery_node, settings, params, charging, self.log)
         declare_live(battery_node, self.battery)
         self.store = StateFileKeeper(settings['state_file'], self.log.warn) if settings['state_file'] else None
@@ -115,6 +134,7 @@ class OneBattery:
         self.status = BatteryStatePublisher(status_node, '', status_node.get_fully_qualified_name().lstrip('/'),
                                   log=NodeLog(status_node.get_logger()), **publisher)
         self.front = BatterySimServer(battery_node, self.battery, '', self.log, self.status, self.store)
+        services.start_workers()
         battery_node.add_on_set_parameters_callback(self.front.on_set_parameters)
         battery_node.create_timer(1.0 / settings['update_rate'], self.front.update, clock=steady_clock())
         status_node.create_timer(1.0 / publisher['rate'], self.status.publish_once, clock=steady_clock())
@@ -146,23 +166,30 @@ def publish_diagnostics(node, status_fronts):
     return node.create_timer(DIAGNOSTIC_PERIOD_S, diagnostics_publisher(node, status_fronts), clock=steady_clock())
 
 
+def finish(front):
+    """At a stop signal: the front's goal ended and its state saved; predict's workers ended."""
+    finished = front.finish()
+    services.stop_workers()
+    return finished
+
+
 def main(args=None):
     with ending_quietly():
-        rclpy.init(args=args)
+        init(args)
         battery_node = Node('battery_simulator')
         status_node = Node('battery_state_pub')
-        try:
-            one = OneBattery(battery_node, status_node)
-        except StartupError as error:
-            exit_on_startup_error(error, battery_node.get_logger())
         executor = SingleThreadedExecutor()
         executor.add_node(battery_node)
         executor.add_node(status_node)
-        one.report_ready()
+        claim = BatteryClaim(battery_node, [battery_node.get_namespace()],
+                             battery_node.get_fully_qualified_name())
         try:
-            spin(executor)
-        finally:
-            one.front.finish()
+            claim.wait(executor)
+            one = OneBattery(battery_node, status_node)
+        except StartupError as error:
+            exit_on_startup_error(error, battery_node.get_logger())
+        one.report_ready()
+        run(executor, lambda: finish(one.front), claim)
 
 
 if __name__ == "__main__":

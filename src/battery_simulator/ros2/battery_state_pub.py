@@ -15,7 +15,6 @@ and the battery's action and services under the usual names.
 """
 import time
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -23,10 +22,11 @@ from rclpy.node import Node
 from battery_simulator.core.parameters import is_number
 from battery_simulator.msg import BatterySimState
 from battery_simulator.core import topics
-from battery_simulator.ros2.battery_sim import OneBattery, publish_diagnostics, read_publisher_settings, steady_clock
+from battery_simulator.ros2.battery_sim import (OneBattery, finish, publish_diagnostics, read_publisher_settings,
+                                                 steady_clock)
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (StartupError, ending_quietly, exit_on_startup_error, parameter_name,
-                                            spin)
+from battery_simulator.ros2.startup import (BatteryClaim, StartupError, ending_quietly, exit_on_startup_error, init,
+                                            parameter_name, run)
 from battery_simulator.ros2.messages import ReceivedState
 from battery_simulator.ros2.qos import STATUS_QOS
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
@@ -40,6 +40,12 @@ def battery_node_present(node):
     return any(name == BATTERY_NODE and ns == namespace for name, ns in node.get_node_names_and_namespaces())
 
 
+def other_state_pub(node):
+    """Whether another node named battery_state_pub runs in this node's namespace (battery_sim's)."""
+    namespace, name = node.get_namespace(), node.get_name()
+    return sum(1 for n, ns in node.get_node_names_and_namespaces() if n == name and ns == namespace) > 1
+
+
 def wait_for_battery_node(node, executor, wait_s):
     deadline = time.monotonic() + wait_s
     while time.monotonic() < deadline:
@@ -51,7 +57,7 @@ def wait_for_battery_node(node, executor, wait_s):
 
 def main(args=None):
     with ending_quietly():
-        rclpy.init(args=args)
+        init(args)
         node = Node('battery_state_pub')
         wait_s = node.declare_parameter('wait_s', 3.0, ParameterDescriptor(
             description='how long to look for a battery_simulator node in this namespace before running '
@@ -62,9 +68,14 @@ def main(args=None):
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         log = NodeLog(node.get_logger())
-        one = None
+        one = claim = None
         try:
             if wait_for_battery_node(node, executor, wait_s):
+                if other_state_pub(node):
+                    raise StartupError('%s already runs beside the battery of %s (battery_sim runs both): a second '
+                                       'one would publish every battery_status twice; battery_state_pub alone is '
+                                       'for a namespace without battery_sim' % (
+                                           node.get_fully_qualified_name(), node.get_namespace()))
                 publisher = read_publisher_settings(node)
                 status = BatteryStatePublisher(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **publisher)
                 node.create_subscription(BatterySimState, topics.STATE_TOPIC,
@@ -74,17 +85,15 @@ def main(args=None):
                 publish_diagnostics(node, [status])
                 log.info('battery_state_pub: following %s', node.resolve_topic_name(topics.STATE_TOPIC))
             else:
+                claim = BatteryClaim(node, [node.get_namespace()], node.get_fully_qualified_name())
+                claim.wait(executor)
                 one = OneBattery(node, node)
                 log.info('battery_state_pub: no %s node in %s after %g s: running a battery of its own',
                          BATTERY_NODE, node.get_namespace(), wait_s)
                 one.report_ready()
         except StartupError as error:
             exit_on_startup_error(error, node.get_logger())
-        try:
-            spin(executor)
-        finally:
-            if one is not None:
-                one.front.finish()
+        run(executor, lambda: finish(one.front) if one is not None else (lambda: True), claim)
 
 
 if __name__ == "__main__":

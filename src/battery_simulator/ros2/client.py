@@ -15,6 +15,11 @@ import time
 from battery_simulator.cli.client_cli import goal_request
 
 STEP_S = 0.1
+#: no feedback (the server sends one at every update, 1-10 Hz) for this long, or the server gone from the graph:
+#: the server is lost (a SIGKILL leaves its entities in the graph until DDS's lease ends, 20 s)
+LOST_SERVER_S = 3.0
+#: a cancel (Ctrl-C, timeout) waits this long at most for the server's answer
+CANCEL_WAIT_S = 1.0
 
 
 class _Stop(Exception):
@@ -45,6 +50,11 @@ def main(argv=None):
     node = rclpy.create_node('battery_sim_client')
     client = ActionClient(node, BatterySim, 'battery_simulator')
     printer = ProgressPrinter(sys.stdout)
+    heard = [time.monotonic()]
+
+    def on_feedback(feedback):
+        heard[0] = time.monotonic()
+        printer.on_feedback(feedback.feedback.battery_percentage)
     node.create_subscription(BatteryState, 'battery_status', lambda msg: setattr(printer, 'state', msg), STATUS_QOS)
     charge = args.charge
     goal_handle = None
@@ -57,7 +67,7 @@ def main(argv=None):
             return
         print('%s the battery...' % ('Charging' if charge else 'Discharging'), flush=True)
         sent = client.send_goal_async(BatterySim.Goal(charge_state=charge),
-                                      feedback_callback=lambda fb: printer.on_feedback(fb.feedback.battery_percentage))
+                                      feedback_callback=on_feedback)
         while not sent.done():
             rclpy.spin_once(node, timeout_sec=STEP_S)
         goal_handle = sent.result()
@@ -66,8 +76,15 @@ def main(argv=None):
             return
         result = goal_handle.get_result_async()
         deadline = time.monotonic() + args.timeout if args.timeout else None
+        heard[0] = time.monotonic()
         while not result.done():
             rclpy.spin_once(node, timeout_sec=STEP_S)
+            if not result.done() and (time.monotonic() - heard[0] >= LOST_SERVER_S or not client.server_is_ready()):
+                goal_handle = None   # nobody to cancel it with
+                print('\nbattery_sim_client: lost the action server %s while the goal was running (nothing from it '
+                      'for %g s)' % (node.resolve_topic_name('battery_simulator'), LOST_SERVER_S), file=sys.stderr)
+                code = 1
+                return
             if deadline is not None and time.monotonic() >= deadline:
                 _cancel(node, goal_handle)
                 print('\ntimed out after %g s; goal cancelled' % args.timeout)
@@ -96,7 +113,7 @@ def main(argv=None):
 def _cancel(node, goal_handle):
     import rclpy
     cancelled = goal_handle.cancel_goal_async()
-    deadline = time.monotonic() + 5.0
+    deadline = time.monotonic() + CANCEL_WAIT_S
     while not cancelled.done() and time.monotonic() < deadline:
         rclpy.spin_once(node, timeout_sec=STEP_S)
 

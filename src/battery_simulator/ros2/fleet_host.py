@@ -27,7 +27,6 @@ whole fleet at ``fleet_rate`` Hz.
 """
 import time
 
-import rclpy
 import yaml
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
@@ -39,12 +38,13 @@ from battery_simulator.core.parameters import is_number
 from battery_simulator.core.state_file import FleetStateFile
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.action_server import BatterySimServer
-from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, declare_live, declare_mode,
-                                                 diagnostics_publisher, load_config, make_battery,
+from battery_simulator.ros2 import services
+from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
+                                                 declare_mode, diagnostics_publisher, load_config, make_battery,
                                                  read_publisher_settings, steady_clock)
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
-                                            parameter_name, spin)
+from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, ending_quietly,
+                                            exit_on_startup_error, init, parameter_name, run)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 FLEET_STATES = '/battery_fleet/states'
@@ -52,7 +52,6 @@ FLEET_DIAGNOSTIC_PERIOD_S = 1.0   # a fleet's DiagnosticArray (every robot's sta
 #: the fleet host's model updates (and its one timer) per second: every executor wake-up rebuilds the wait set of
 #: every robot (the host's main cost), so once a second (feedback is due once a second; changes act at once)
 FLEET_UPDATE_RATE_HZ = 1.0
-DISCOVERY_S = 1.0            # how long to look for another process serving one of our robots
 
 
 def _any(description):
@@ -96,6 +95,7 @@ class FleetSettings:
         except FleetError as error:
             raise StartupError('%s: %s' % (node.get_fully_qualified_name(), str(error).replace('~', ''))) from None
         self.fleet_rate = declared['fleet_rate']
+        check_state_path(node, self.battery['state_file'], fleet=True)
         self.configs = {}
         for robot in self.robots:
             if robot.config not in self.configs:
@@ -184,9 +184,11 @@ class FleetHost:
         self._states_pub.publish(msg)
 
     def finish(self):
-        for robot in self.robots:
-            robot.front.finish()
+        """End every robot's goal (aborted, "server shutting down"), save every state; a function telling
+        whether every goal's result has gone."""
+        finished = [robot.front.finish() for robot in self.robots]
         self._store.write_if_due(force=True)
+        return lambda: all(done() for done in finished)
 
 
 class _NoStore:
@@ -205,40 +207,32 @@ class _NoStore:
         pass
 
 
-def served_elsewhere(node, executor, names):
-    """{robot name: its battery node} for robots another process already serves (looked up for DISCOVERY_S)."""
-    deadline = time.monotonic() + DISCOVERY_S
-    while time.monotonic() < deadline:
-        executor.spin_once(timeout_sec=0.1)
-    wanted = {'/' + name: name for name in names}
-    return {wanted[ns]: '%s/%s' % (ns, name) for name, ns in node.get_node_names_and_namespaces()
-            if name == 'battery_simulator' and ns in wanted}
+def finish(host):
+    finished = host.finish()
+    services.stop_workers()
+    return finished
 
 
 def main(args=None):
     with ending_quietly():
-        rclpy.init(args=args)
+        init(args)
         node = Node('battery_fleet')
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        host = None
+        host = claim = None
         try:
             settings = FleetSettings(node)
-            taken = served_elsewhere(node, executor, [robot.name for robot in settings.robots])
-            if taken:
-                name = sorted(taken)[0]
-                raise StartupError('robot %s is already served by %s (another process): exactly one battery per '
-                                   'robot name; %d of our robots are taken' % (name, taken[name], len(taken)))
+            claim = BatteryClaim(node, ['/' + robot.name for robot in settings.robots],
+                                 '%s (a fleet host)' % node.get_fully_qualified_name())
+            claim.wait(executor)
             host = FleetHost(node, settings, executor)
         except StartupError as error:
             exit_on_startup_error(error, node.get_logger())
+        services.start_workers()
         node.get_logger().info('battery_fleet ready: %d robots (%s ... %s), update %g Hz, battery_status %g Hz' % (
             len(host.robots), host.robots[0].name, host.robots[-1].name, settings.battery['update_rate'],
             settings.publisher['rate']))
-        try:
-            spin(executor)
-        finally:
-            host.finish()
+        run(executor, lambda: finish(host), claim)
 
 
 if __name__ == "__main__":

@@ -1,17 +1,37 @@
 """Start-up of the rclpy nodes: declared parameters checked by core/settings.py's rules, one fatal
-line and a non-zero exit for a bad value, a clean end on SIGINT or SIGTERM at any moment."""
+line and a non-zero exit for a bad value, a clean end on SIGINT or SIGTERM at any moment.
+
+rclpy's own signal handlers are not installed (``init``): they shut the context down before any code of
+ours runs, so a goal could not be ended nor its result sent ("feedback publisher is invalid"). Here a
+signal during start-up ends the process (nothing to save yet); once running (``run``) it stops the
+spinning, the node's ``finish()`` ends its goals (aborted, "server shutting down") and saves, the executor
+runs until their results are sent (at most FINISH_S), and only then is the context shut down: exit 0.
+"""
 import contextlib
+import json
+import os
 import signal
+import socket
 import sys
+import threading
+import time
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.executors import ExternalShutdownException
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
+from std_msgs.msg import String
 
 from battery_simulator.core.parameters import number_from_text
 from battery_simulator.core.settings import SettingError, check_setting
 
 EXIT_BAD_PARAMETER = 2
+#: after a stop signal, the executor runs this long at most for the goals' results to be sent
+FINISH_S = 1.5
+#: ... and this long after they have gone, so that DDS delivers them before the process ends
+LINGER_S = 0.3
 
 
 class StartupError(ValueError):
@@ -68,12 +88,15 @@ def exit_on_startup_error(error, logger=None):
     sys.exit(EXIT_BAD_PARAMETER)
 
 
+def init(args=None):
+    """rclpy.init without rclpy's signal handlers (see the module's docstring)."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+
+
 @contextlib.contextmanager
 def ending_quietly():
-    """Around a node's main: SIGINT or SIGTERM at any moment (start-up included) ends it without a traceback.
-
-    rclpy's own handlers (installed by rclpy.init) shut the context down and then call ours, which raise
-    KeyboardInterrupt in the main thread: caught here, the caller's ``finally`` saves the state."""
+    """Around a node's main: SIGINT or SIGTERM during start-up ends it without a traceback (a
+    KeyboardInterrupt in the main thread, caught here); ``run`` takes over once the node runs."""
     def _stop(signum, frame):
         raise KeyboardInterrupt()
     signal.signal(signal.SIGINT, _stop)
@@ -87,10 +110,111 @@ def ending_quietly():
             rclpy.try_shutdown()
 
 
-def spin(executor):
-    """Spin until shutdown (rclpy's signal handlers end it); True when ended by a signal."""
+def _stop_future(executor):
+    """A Future done at the first SIGINT or SIGTERM. The signal's byte arrives on a pipe (Python's wakeup
+    fd, written in the C handler) read by a thread: it wakes the executor at once, which the main thread,
+    blocked in rcl's wait, could not do for itself."""
+    stop = Future()
+    read_fd, write_fd = os.pipe()
+    os.set_blocking(write_fd, False)
+    signal.set_wakeup_fd(write_fd)
+
+    def _noted(signum, frame):   # the byte on the pipe is the notice
+        pass
+    signal.signal(signal.SIGINT, _noted)
+    signal.signal(signal.SIGTERM, _noted)
+
+    def _watch():
+        with contextlib.suppress(OSError):
+            os.read(read_fd, 1)
+        stop.set_result(True)
+        executor.wake()
+    threading.Thread(target=_watch, name='stop_signal', daemon=True).start()
+    return stop
+
+
+def run(executor, finish, claim=None):
+    """Spin until SIGINT or SIGTERM (or until ``claim`` is lost); then ``finish()`` (ends the goals, saves;
+    returns a function telling whether every goal's result has gone) and spin until it is true, at most
+    FINISH_S, before the context is shut down. A lost claim then exits EXIT_BAD_PARAMETER."""
+    stop = _stop_future(executor)
+    if claim is not None:
+        claim.on_lost = lambda: stop.done() or stop.set_result(False) or executor.wake()
     try:
-        executor.spin()
+        executor.spin_until_future_complete(stop)
     except (KeyboardInterrupt, ExternalShutdownException):
-        return True
-    return False
+        pass
+    finished = finish()
+    deadline = time.monotonic() + FINISH_S
+    with contextlib.suppress(Exception):
+        while rclpy.ok() and not finished() and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        linger = min(deadline, time.monotonic() + LINGER_S)   # the results on their way (reliable: acknowledged)
+        while rclpy.ok() and time.monotonic() < linger:
+            executor.spin_once(timeout_sec=0.05)
+    with contextlib.suppress(Exception):
+        executor.shutdown(timeout_sec=0.5)
+    if claim is not None and claim.lost is not None:
+        with contextlib.suppress(Exception):
+            rclpy.try_shutdown()
+        sys.exit(EXIT_BAD_PARAMETER)
+
+
+# -- one battery per name (Part 3's rule on ROS 2) -----------------------------------------------------
+
+#: every process that runs batteries says which names (namespaces) it serves, since when, on this topic
+CLAIMS_TOPIC = '/battery_claims'
+CLAIMS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: how long a process listens for the claims of others before it runs its batteries
+CLAIM_WAIT_S = 1.5
+
+
+class BatteryClaim:
+    """This process's claim on battery names, and the rule that keeps one battery per name.
+
+    Each process that runs a battery publishes (latched) the namespaces it serves with the moment it
+    started (wall clock in ns, then host and pid: a total order) and listens to every other claim, from
+    before its batteries start to its end. Of two claims on one name the earlier one stays; the later one
+    exits with one line naming the other: at start-up after CLAIM_WAIT_S of listening, or, should
+    discovery take longer than that, as soon as the earlier claim arrives. Two processes started in the
+    same second both see both claims, so exactly one of them runs: no race is left to a graph lookup.
+    """
+
+    def __init__(self, node, names, what):
+        """``names``: the namespaces served ('/robot1'); ``what``: this process's battery node(s) as a line
+        names them ('/robot1/battery_simulator')."""
+        self.node, self.names, self.what = node, sorted(set(names)), what
+        self.order = (time.time_ns(), socket.gethostname(), os.getpid())
+        self.lost = None
+        self.on_lost = None
+        self._sub = node.create_subscription(String, CLAIMS_TOPIC, self._on_claim, CLAIMS_QOS)
+        self._pub = node.create_publisher(String, CLAIMS_TOPIC, CLAIMS_QOS)
+        self._pub.publish(String(data=json.dumps({'order': list(self.order), 'names': self.names,
+                                                   'node': what})))
+
+    def _on_claim(self, msg):
+        try:
+            claim = json.loads(msg.data)
+            order, names, node = tuple(claim['order']), set(claim['names']), str(claim['node'])
+        except (ValueError, KeyError, TypeError):
+            return
+        shared = sorted(names.intersection(self.names))
+        if self.lost is not None or not shared or order >= self.order:
+            return
+        name = shared[0]
+        self.lost = ('robot %s is already served by %s (pid %s, started %.3f s before this one): exactly one '
+                     'battery per robot name%s' % (
+                         name.strip('/') or '/', node, order[2], (self.order[0] - order[0]) * 1e-9,
+                         '' if len(shared) == 1 else ' (%d of our robots are taken)' % len(shared)))
+        if self.on_lost is not None:
+            self.node.get_logger().fatal(self.lost)
+            self.on_lost()
+
+    def wait(self, executor, wait_s=CLAIM_WAIT_S):
+        """Listen ``wait_s`` for earlier claims; StartupError (the line) when one of our names is taken."""
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline and self.lost is None:
+            executor.spin_once(timeout_sec=0.05)
+        if self.lost is not None:
+            raise StartupError(self.lost)

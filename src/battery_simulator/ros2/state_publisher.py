@@ -20,7 +20,7 @@ class BatteryStatePublisher:
     """battery_state_pub's publishers for one battery whose names live under ``namespace`` of ``node``."""
 
     def __init__(self, node, namespace, diagnostic_name, rate, frame_id, stale_timeout, low_percentage,
-                 critical_percentage, hysteresis, log):
+                 critical_percentage, hysteresis, log, battery_state_topic=''):
         self.rate = rate
         self._node = node
         self._frame_id = frame_id
@@ -28,6 +28,9 @@ class BatteryStatePublisher:
         self._rules = StatusRules(stale_timeout, low_percentage, critical_percentage, hysteresis, log,
                                   'the battery', 'the battery')
         self._pub = node.create_publisher(BatteryState, namespace + topics.BATTERY_STATUS, STATUS_QOS)
+        # the same message for the readers of battery_state (opennav_docking), sent while one listens
+        self._twin = node.create_publisher(BatteryState, topics.robot_topic(namespace, battery_state_topic),
+                                           STATUS_QOS) if battery_state_topic else None
         self._alarm_pubs = {name: node.create_publisher(Bool, namespace + topic, LATCHED_QOS)
                             for name, topic in (('low', topics.BATTERY_LOW), ('critical', topics.BATTERY_CRITICAL))}
         for publisher in self._alarm_pubs.values():
@@ -54,6 +57,8 @@ class BatteryStatePublisher:
         msg.header.stamp = self._node.get_clock().now().to_msg()
         msg.header.frame_id = self._frame_id
         self._pub.publish(msg)
+        if self._twin is not None and self._twin.get_subscription_count() > 0:
+            self._twin.publish(msg)
 
     def diagnostic_status(self):
         """The "<node>: Battery" status."""

@@ -27,9 +27,12 @@ import tornado.util
 import tornado.web
 import tornado.websocket
 
+from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, SET_STATE_TEMPERATURE_C
 from battery_simulator.web.dashboard_model import FAULTS, DashboardModel
 
-STATIC_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
+#: resolved: a symlinked install (colcon --symlink-install) serves the files it links to, which tornado >= 6.5
+#: refuses outside the directory it was given
+STATIC_DIR = os.path.join(os.path.dirname(os.path.realpath(__file__)), 'static')
 CHART_JS_DIR = '/usr/share/javascript/chart.js'
 CHART_JS_FILE = 'chart.min.js'   # what battery.html loads from CHART_JS_DIR
 PUSH_PERIOD_S = 0.25           # the page hears of a change within this (plus the network)
@@ -42,8 +45,10 @@ SECURITY_HEADERS = {
     'X-Content-Type-Options': 'nosniff',
     'Referrer-Policy': 'no-referrer',
 }
-#: set_state's ranges (srv/SetState.srv); an empty field is NaN: left as it is
-SET_STATE_RANGES = {'percentage': (0.0, 100.0), 'temperature_c': (-60.0, 150.0), 'state_of_health': (0.0, 1.0)}
+#: set_state's ranges, inclusive, as the simulator checks them (core/battery_model.py); an empty field is NaN:
+#: left as it is
+SET_STATE_RANGES = {'percentage': (0.0, 100.0), 'temperature_c': SET_STATE_TEMPERATURE_C,
+                    'state_of_health': (MIN_STATE_OF_HEALTH, 1.0)}
 CONTROL_ACTIONS = ('set_state', 'set_charging', 'inject_fault')
 #: what a control's service call came to (the hub's call_service returns one with its message)
 SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE = 'ok', 'refused', 'unreachable'
@@ -118,8 +123,6 @@ def control_request(body):
     if action == 'set_state':
         arguments = {name: _number(body.get(name), name, low, high, blank_is_nan=True)
                      for name, (low, high) in SET_STATE_RANGES.items()}
-        if arguments['state_of_health'] == 0.0:
-            raise ValueError('state_of_health must be in (0, 1]')
         if all(math.isnan(value) for value in arguments.values()):
             raise ValueError('set_state needs at least one value')
         return action, arguments

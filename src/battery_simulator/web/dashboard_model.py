@@ -8,10 +8,10 @@ field.
 """
 import bisect
 import collections
-import math
 
 from battery_simulator.core import names
 from battery_simulator.core.parameters import is_number
+from battery_simulator.core.settings import PUBLISHER_SETTINGS
 
 BATTERY_TYPE = 'sensor_msgs/BatteryState'
 BOOL_TYPE = 'std_msgs/Bool'
@@ -20,8 +20,9 @@ FLEET_STATE_TYPE = 'battery_simulator/BatteryFleetState'
 
 STALE_MIN_S = 3.0        # stale after no message for max(this, STALE_PERIODS periods)
 STALE_PERIODS = 3
-LOW_FRACTION = 0.20      # without a battery_low / battery_critical topic
-CRITICAL_FRACTION = 0.05
+#: without a battery_low / battery_critical topic: battery_state_pub's default thresholds
+LOW_FRACTION, CRITICAL_FRACTION = (next(s.default for s in PUBLISHER_SETTINGS if s.name == name)
+                                   for name in ('low_percentage', 'critical_percentage'))
 HISTORY_POINTS = 1200    # at most this many chart points per battery over ~history_s
 PERIOD_SAMPLES = 8       # arrival intervals the period estimate takes the median of
 
@@ -30,9 +31,8 @@ SUPPLY_STATUS = names.SUPPLY_STATUS_TEXT
 #: BatterySimState.charging_state -> the page's status (the simulator knows Empty): the page writes
 #: "Not charging" as a sentence, the simulator's texts are the diagnostics' "Not Charging"
 SIM_CHARGING_STATE = {state: state.capitalize() for state in names.CHARGING_STATES}
-#: sensor_msgs/BatteryState.power_supply_health
-SUPPLY_HEALTH = {1: 'Good', 2: 'Overheat', 3: 'Dead', 4: 'Overvoltage', 5: 'Unspecified failure', 6: 'Cold',
-                 7: 'Watchdog timer expired', 8: 'Safety timer expired'}
+#: sensor_msgs/BatteryState.power_supply_health: the diagnostics' texts; unknown is '-' as every unknown field
+SUPPLY_HEALTH = {code: text for code, text in names.HEALTH_TEXT.items() if code != names.SupplyHealth.UNKNOWN}
 #: the numbers a BatteryState gives (pack units: V, A, degC, Ah; percentage 0..1)
 BATTERY_FIELDS = ('percentage', 'voltage', 'current', 'temperature', 'charge', 'capacity', 'design_capacity')
 CHART_FIELDS = ('percentage', 'voltage', 'current', 'temperature')
@@ -151,12 +151,15 @@ def discover(published):
     extras that exist) and {fleet state topic: namespace of its host}. A battery's extras
     live in its namespace (``<ns>/battery_low``, ``<ns>/battery_critical``,
     ``<ns>/battery_simulator/state``); they belong to it when it is the namespace's
-    ``battery_status`` or the namespace's only battery.
+    ``battery_status`` or the namespace's only battery. A ``<ns>/battery_state`` beside a
+    ``<ns>/battery_status`` is the simulator's twin of it (what opennav_docking reads): one battery, shown once.
     """
     types = {}
     for topic, topic_type in published:
         types[topic] = topic_type
-    batteries = sorted(topic for topic, topic_type in types.items() if topic_type == BATTERY_TYPE)
+    batteries = sorted(topic for topic, topic_type in types.items() if topic_type == BATTERY_TYPE
+                       and not (topic.endswith('/battery_state')
+                                and types.get(topic[:-len('battery_state')] + 'battery_status') == BATTERY_TYPE))
     per_namespace = collections.Counter(namespace_of(topic) for topic in batteries)
     found = {}
     for topic in batteries:
@@ -354,6 +357,17 @@ class DashboardModel:
         record = self._record(topic, now)
         record.on_battery(dict(values), now, self.history_step_s)
         record.own_last = now
+
+    def own_topics_dropped(self, topic):
+        """The node no longer reads the battery's own topic and simulator state (a fleet host's messages
+        bring it): those count from now on, not only once the own topic's last message is older than the
+        stale time, and the simulator's extras (its time remaining first) are not shown frozen."""
+        record = self.records.get(topic)
+        if record is not None:
+            record.own_last = None
+            if record.sim:
+                record.sim = {}
+                self._changed.add(topic)
 
     def on_level_topic(self, topic, which, active, now):
         """battery_low (which='low') or battery_critical ('critical') of the battery ``topic``."""

@@ -1,10 +1,11 @@
-"""The live dashboard node (battery_dashboard): every sensor_msgs/BatteryState on the master, in a browser.
+"""The live dashboard on ROS 1 (battery_dashboard.py): every sensor_msgs/BatteryState on the master, in a browser.
 
 It finds every BatteryState topic (and, beside each, ``battery_low``,
 ``battery_critical`` and ``battery_simulator/state``; every fleet host's
 ``states``), subscribes to them, and serves the page of
 ``battery_simulator.web.dashboard_app`` with tornado on the main thread. ROS
-callbacks write the model under the hub's lock; the web thread reads it.
+callbacks write the model under the hub's lock; the web thread reads it. The
+rules it shares with ros2/dashboard.py are web/dashboard_rules.py's.
 
 :ROS Parameters:
   - ``~host`` (str): address to listen on (default 127.0.0.1; 0.0.0.0: every interface)
@@ -21,9 +22,7 @@ callbacks write the model under the hub's lock; the web thread reads it.
 :Calls (only with ~allow_control):
   - ``<ns>/battery_simulator/set_state``, ``set_charging``, ``inject_fault``
 """
-import errno
 import functools
-import math
 import threading
 import time
 
@@ -34,41 +33,25 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatteryFleetState, BatterySimState
-from battery_simulator.core import topics
-from battery_simulator.ros1.startup import (StartupError, checked_param, exit_on_startup_error, init_node, is_number,
-                                           signals_held)
+from battery_simulator.ros1.startup import (StartupError, checked_param, exit_on_startup_error, init_node,
+                                            signals_held)
 from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
                                                 bridge_tornado_logs, chart_library_problem, make_app, server_options,
                                                 start_pushing)
-from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover, namespace_of
+from battery_simulator.web.dashboard_model import namespace_of
+from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, NODE_NAME, SERVICE_WAIT_S, battery_values,
+                                                   call_line, finish_settings, fleet_host, listen_problem,
+                                                   ready_line, request_fields, service_name, sim_values,
+                                                   subscriptions)
 
-SERVICE_TIMEOUT_S = 2.0
-SERVICES = {'set_state': (topics.SET_STATE, SetState), 'set_charging': (topics.SET_CHARGING, SetBool),
-            'inject_fault': (topics.INJECT_FAULT, InjectFault)}
+SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
 
 
 def read_settings():
     """All start-up parameters, checked; raises StartupError."""
-    return dict(
-        host=checked_param('~host', '127.0.0.1', lambda v: isinstance(v, str) and v.strip() != '',
-                           'an address to listen on, e.g. 127.0.0.1 or 0.0.0.0'),
-        port=int(checked_param('~port', 8090, lambda v: is_number(v) and v == int(v) and 1 <= v <= 65535,
-                               'a whole number in [1, 65535]')),
-        scan_period=checked_param('~scan_period', 2.0, lambda v: is_number(v) and 0 < v <= 3600,
-                                  'a number in (0, 3600] s'),
-        history_s=checked_param('~history_s', 600.0, lambda v: is_number(v) and 10 <= v <= 86400,
-                                'a number in [10, 86400] s'),
-        allow_control=checked_param('~allow_control', False, lambda v: isinstance(v, bool), 'true or false'),
-    )
-
-
-def battery_values(msg):
-    """A BatteryState as the plain dict the model takes."""
-    values = {field: getattr(msg, field) for field in BATTERY_FIELDS}
-    values.update(power_supply_status=msg.power_supply_status, power_supply_health=msg.power_supply_health,
-                  location=msg.location, serial_number=msg.serial_number, stamp=msg.header.stamp.to_sec())
-    return values
+    return finish_settings({setting.name: checked_param('~' + setting.name, setting.default, setting.check,
+                                                        setting.allowed) for setting in DASHBOARD_SETTINGS})
 
 
 def publisher_of(msg):
@@ -85,29 +68,23 @@ class BatteryDashboard:
         self.scan_period = scan_period
         self._subscribers = {}    # (kind, topic) -> rospy.Subscriber
         self._stop = threading.Event()
+        self._kinds = {'battery': (BatteryState, self._on_battery), 'low': (Bool, self._on_level),
+                       'critical': (Bool, self._on_level), 'state': (BatterySimState, self._on_sim_state),
+                       'fleet': (BatteryFleetState, self._on_fleet)}
 
     # -- discovery
     def scan(self):
         """Subscribe to new topics, drop those gone (their batteries go stale, then away)."""
-        batteries, fleets = discover(rospy.get_published_topics())
-        wanted = {}
-        for battery, extras in batteries.items():
-            wanted[('battery', battery)] = (battery, BatteryState, self._on_battery, battery)
-            for kind, message_type, callback in (('low', Bool, self._on_level), ('critical', Bool, self._on_level),
-                                                 ('state', BatterySimState, self._on_sim_state)):
-                if kind in extras:
-                    argument = battery if kind == 'state' else (battery, kind)
-                    wanted[(kind, battery)] = (extras[kind], message_type, callback, argument)
-        for fleet, host_namespace in fleets.items():
-            wanted[('fleet', fleet)] = (fleet, BatteryFleetState, self._on_fleet, (fleet, host_namespace))
+        wanted, controls = subscriptions(rospy.get_published_topics())
         now = time.time()
         with self.hub.lock:
-            for battery, extras in batteries.items():
-                self.hub.model.add(battery, now, has_controls='state' in extras)
+            for battery, has_controls in controls.items():
+                self.hub.model.add(battery, now, has_controls=has_controls)
         for key in set(self._subscribers) - set(wanted):
             self._subscribers.pop(key).unregister()
         for key in set(wanted) - set(self._subscribers):
-            topic, message_type, callback, argument = wanted[key]
+            topic, argument = wanted[key]
+            message_type, callback = self._kinds[key[0]]
             self._subscribers[key] = rospy.Subscriber(topic, message_type, callback, callback_args=argument,
                                                       queue_size=1)
 
@@ -116,7 +93,7 @@ class BatteryDashboard:
             try:
                 self.scan()
             except Exception as error:   # noqa: B902 (a master gone a moment: try again next period)
-                rospy.logwarn_throttle(30.0, 'battery_dashboard: cannot scan the master (%s)', error)
+                rospy.logwarn_throttle(30.0, '%s: cannot scan the master (%s)', NODE_NAME, error)
             self._stop.wait(self.scan_period)
 
     def stop(self):
@@ -134,9 +111,7 @@ class BatteryDashboard:
             self.hub.model.on_level_topic(battery, kind, msg.data, time.time())
 
     def _on_sim_state(self, msg, battery):
-        sim = {'charging_state': msg.charging_state, 'time_remaining_s': msg.time_remaining_s,
-               'active_faults': list(msg.active_faults), 'cut_off': msg.cut_off, 'cycle_count': msg.cycle_count,
-               'state_of_health': msg.state_of_health, 'load_power_w': msg.load_power_w}
+        sim = sim_values(msg)
         with self.hub.lock:
             self.hub.model.on_sim_state(battery, sim, time.time())
 
@@ -144,7 +119,7 @@ class BatteryDashboard:
         """Every host publishes its robots on the one topic (older hosts on their own ``<host>/states``):
         merged by robot name, each robot's host is the node that published it."""
         fleet, host_namespace = fleet_and_namespace
-        host = publisher_of(msg) or (fleet[:-len('/states')] if fleet.endswith('/states') else fleet)
+        host = fleet_host(publisher_of(msg), fleet)
         entries = [(name, functools.partial(battery_values, state)) for name, state in zip(msg.names, msg.states)]
         with self.hub.lock:
             self.hub.model.on_fleet_message(host_namespace, host, entries, time.time())
@@ -153,58 +128,38 @@ class BatteryDashboard:
     def call_service(self, battery, action, arguments):
         """Call one of the three services of the battery's simulator; (SERVICE_OK, SERVICE_REFUSED or
         SERVICE_UNREACHABLE, message)."""
-        relative, service_type = SERVICES[action]
-        name = namespace_of(battery) + relative
+        name = service_name(namespace_of(battery), action)
         try:
-            rospy.wait_for_service(name, timeout=SERVICE_TIMEOUT_S)
-            proxy = rospy.ServiceProxy(name, service_type)
-            if action == 'set_state':
-                response = proxy(percentage=arguments['percentage'], temperature_c=arguments['temperature_c'],
-                                 state_of_health=arguments['state_of_health'], gauge_error=float('nan'))
-            elif action == 'set_charging':
-                response = proxy(arguments['charging'])
-            else:
-                response = proxy(arguments['fault'], arguments['active'])
+            rospy.wait_for_service(name, timeout=SERVICE_WAIT_S)
+            response = rospy.ServiceProxy(name, SERVICE_TYPES[action])(**request_fields(action, arguments))
         except (rospy.ROSException, rospy.ServiceException) as error:
             return SERVICE_UNREACHABLE, '%s: %s' % (name, error)
-        rospy.loginfo('battery_dashboard: %s %s -> %s %s', name, _shown(arguments), response.success,
-                      response.message)
+        rospy.loginfo(call_line(name, arguments, response.success, response.message))
         return (SERVICE_OK if response.success else SERVICE_REFUSED), response.message
 
 
-def _shown(arguments):
-    return ', '.join('%s=%s' % (key, 'unchanged' if isinstance(value, float) and math.isnan(value) else value)
-                     for key, value in sorted(arguments.items()))
-
-
 def main():
-    bridge_tornado_logs(lambda text: rospy.logwarn('battery_dashboard: %s', text),
-                        lambda text: rospy.logerr('battery_dashboard: %s', text))
+    bridge_tornado_logs(lambda text: rospy.logwarn('%s: %s', NODE_NAME, text),
+                        lambda text: rospy.logerr('%s: %s', NODE_NAME, text))
     with signals_held():
-        settings = init_node('battery_dashboard', read_settings)
+        settings = init_node(NODE_NAME, read_settings)
         hub = Hub(settings['history_s'], settings['allow_control'])
         node = BatteryDashboard(hub, settings['scan_period'])
         hub.call_service = node.call_service if settings['allow_control'] else None
         loop = tornado.ioloop.IOLoop.current()
         try:
-            make_app(hub, settings['host'], settings['port'], warn=lambda text: rospy.logwarn('battery_dashboard: %s', text)
+            make_app(hub, settings['host'], settings['port'], warn=lambda text: rospy.logwarn('%s: %s', NODE_NAME, text)
                      ).listen(settings['port'], address=settings['host'], **server_options())
             problem = chart_library_problem()
             if problem:
-                rospy.logwarn('battery_dashboard: %s', problem)
+                rospy.logwarn('%s: %s', NODE_NAME, problem)
         except OSError as error:
-            if error.errno == errno.EADDRINUSE:
-                problem = 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (
-                    rospy.resolve_name('~port'), settings['port'], settings['host'], settings['port'])
-            else:   # an address this machine has not (or a name that does not resolve)
-                problem = 'parameter %s = %r is invalid: cannot listen on %s:%d (%s)' % (
-                    rospy.resolve_name('~host'), settings['host'], settings['host'], settings['port'],
-                    error.strerror or error)
-            exit_on_startup_error(StartupError(problem),
+            exit_on_startup_error(StartupError(listen_problem(error, settings['host'], settings['port'],
+                                                              rospy.resolve_name('~host'),
+                                                              rospy.resolve_name('~port'))),
                                   stop_launch=False)   # dashboard.launch's required="true" ends a launch of it alone
         threading.Thread(target=node.scan_loop, name='dashboard_scan', daemon=True).start()
         start_pushing(hub)
         rospy.on_shutdown(lambda: (node.stop(), loop.add_callback(loop.stop)))
-    rospy.loginfo('battery_dashboard: http://%s:%d/ (%s)', settings['host'], settings['port'],
-                  'controls on' if settings['allow_control'] else 'read-only')
+    rospy.loginfo(ready_line(settings))
     loop.start()

@@ -1,0 +1,205 @@
+"""battery_fit: your robot's battery config from its own logs (contract Part 8).
+
+    rosrun battery_simulator battery_fit.py LOG [LOG ...] -o my_robot.yaml [--plot fit.png]
+    tools/ros2.sh battery_fit LOG [LOG ...] -o my_robot.yaml            (ROS 2: battery_fit)
+
+LOG: a ROS 1 bag, a ROS 2 bag (MCAP or sqlite3: its directory or its file) or a CSV with time, voltage,
+current and optionally temperature, percentage, linear_x, angular_z. Several logs of one robot are fitted
+together. The report goes to stdout; a progress bar to a terminal's stderr. A log that cannot be fitted:
+one line, exit status 1 (2 for a bad argument); no config is written then.
+"""
+import argparse
+import math
+import os
+import sys
+import time
+
+from battery_simulator.core.fit import FitError
+from battery_simulator.core.fit.config_writer import config_text, write_config
+from battery_simulator.core.fit.conventions import prepare, split_at_gaps
+from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
+from battery_simulator.core.fit.log_reader import read_log
+from battery_simulator.core.fit.report import figures, report_text, write_profile
+from battery_simulator.core.parameters import MAX_CELLS, ParameterError, preset, preset_names
+
+PROG = 'battery_fit'
+DEFAULT_CHEMISTRY = 'lg_hg2_cell'
+#: --chemistry's short names
+CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell'}
+BAR_WIDTH = 30
+#: a fit worse than this (per cell, on the fitted part) is refused: the logs are not what the model is
+MAX_RMSE_PER_CELL_V = 0.2
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """An error is one line naming the argument (argparse would print the usage block first)."""
+
+    def error(self, message):
+        self.exit(2, '%s: error: %s\n' % (self.prog, message))
+
+
+def _cells(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError('%r is not a whole number' % text) from None
+    if not 1 <= value <= MAX_CELLS:
+        raise argparse.ArgumentTypeError('%d is not in [1, %d]' % (value, MAX_CELLS))
+    return value
+
+
+def _holdout(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError('%r is not a number' % text) from None
+    if not 0.0 <= value <= 0.75:   # also NaN
+        raise argparse.ArgumentTypeError('%s is not in [0, 0.75] (the fraction of each log held out)' % text)
+    return value
+
+
+def parse_arguments(argv):
+    parser = _OneLineParser(prog=PROG, description='Fit a battery config to recorded logs of your robot.')
+    parser.add_argument('logs', nargs='+', metavar='LOG', help='ROS 1 bag, ROS 2 bag (MCAP / sqlite3) or CSV')
+    parser.add_argument('-o', '--output', required=True, metavar='CONFIG.yaml', help='the config to write')
+    parser.add_argument('--cells-series', type=_cells, help='cells in series (default: from the voltage range)')
+    parser.add_argument('--chemistry', default=DEFAULT_CHEMISTRY,
+                        help='the preset whose cell shape is fitted (default %s)' % DEFAULT_CHEMISTRY)
+    parser.add_argument('--battery-topic', help='the sensor_msgs/BatteryState topic (default: found by type)')
+    parser.add_argument('--motion-topic', help='the cmd_vel (Twist, TwistStamped) or Odometry topic')
+    parser.add_argument('--holdout', type=_holdout, default=DEFAULT_HOLDOUT,
+                        help='fraction of each log held out at its end (default %g)' % DEFAULT_HOLDOUT)
+    parser.add_argument('--plot', metavar='PNG', help='the logs\' voltage against the model\'s, with residuals')
+    parser.add_argument('--profiles', metavar='DIR', help='write each log\'s current as a battery_replay profile')
+    args = parser.parse_args(argv)
+    args.chemistry = CHEMISTRIES.get(args.chemistry, args.chemistry)
+    if args.chemistry not in preset_names():
+        parser.error('argument --chemistry: %r is not a preset (one of %s)' % (args.chemistry, ', '.join(preset_names())))
+    if os.path.isdir(args.output):
+        parser.error('argument -o: %s is a directory (give a file name for the config)' % args.output)
+    return args
+
+
+class ProgressBar:
+    """A bar redrawn on a terminal; nothing when stderr is not one."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self._on = stream.isatty()
+        self._start = time.monotonic()
+
+    def __call__(self, fraction, text):
+        if not self._on:
+            return
+        filled = int(round(BAR_WIDTH * min(max(fraction, 0.0), 1.0)))
+        self._stream.write('\r[%s%s] %3.0f %%  %5.1f s  %-40s' % ('#' * filled, '.' * (BAR_WIDTH - filled),
+                                                                  100.0 * fraction, time.monotonic() - self._start,
+                                                                  text[:40]))
+        self._stream.flush()
+
+    def done(self):
+        if self._on:
+            self._stream.write('\n')
+            self._stream.flush()
+
+
+def run(args, stdout=None, stderr=None):
+    """Fit, write the config (and plot, profiles), print the report; FitError for a log that cannot be fitted."""
+    stdout = stdout or sys.stdout
+    bar = ProgressBar(stderr or sys.stderr)
+    try:
+        chemistry = preset(args.chemistry)
+    except ParameterError as error:
+        raise FitError(str(error)) from None
+    logs = []
+    for index, path in enumerate(args.logs):
+        bar(0.0, 'reading %s' % os.path.basename(path))
+        logs.extend(split_at_gaps(prepare(read_log(path, args.battery_topic, args.motion_topic),
+                                          chemistry.cmd_vel_timeout_s)))
+    result = fit(logs, chemistry, args.chemistry, cells_series=args.cells_series, holdout=args.holdout,
+                 progress=lambda fraction, text: bar(0.05 + 0.85 * fraction, text))
+    bar(0.92, 'replaying the logs through the model')
+    numbers = figures(result)
+    per_cell_v = numbers.fit_rmse_v / result.params.cells_series
+    if not per_cell_v <= MAX_RMSE_PER_CELL_V:   # also NaN
+        raise FitError('the fitted model does not reproduce the logs (RMSE %.0f mV per cell on the fitted part): '
+                       'are they one battery\'s, with its current? (no config written)' % (1000.0 * per_cell_v))
+    command = ' '.join([PROG] + [a for a in sys.argv[1:]]) if sys.argv else PROG
+    text = config_text(result, command)
+    profiles = None
+    if args.profiles:
+        profiles = _write_profiles(args.profiles, logs)
+    write_config(args.output, text)
+    if args.plot:
+        bar(0.97, 'plotting')
+        plot(args.plot, result, numbers)
+    bar(1.0, 'done')
+    bar.done()
+    stdout.write(report_text(result, numbers, args.output, args.holdout, profiles))
+
+
+def _write_profiles(directory, logs):
+    try:
+        os.makedirs(directory, exist_ok=True)
+        paths = []
+        for index, log in enumerate(logs):
+            path = os.path.join(directory, 'profile_%d_%s.csv' % (index + 1, os.path.basename(log.name.rstrip('/'))
+                                                                  .replace('.', '_')))
+            write_profile(path, log)
+            paths.append(path)
+        return paths
+    except OSError as error:
+        raise FitError('cannot write the profiles into %s: %s' % (directory, error.strerror)) from None
+
+
+def plot(path, result, numbers):
+    """The logs' voltage against the model's (the held-out part shaded), and the residuals per cell."""
+    try:
+        import matplotlib
+        matplotlib.use('Agg')
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise FitError('--plot needs matplotlib (python3-matplotlib)') from None
+    series = result.params.cells_series
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, gridspec_kw={'height_ratios': [2, 1]})
+    offset = 0.0
+    for index, (log, model, mask) in enumerate(zip(result.logs, numbers.model_voltage, result.fit_masks)):
+        hours = (log.time_s + offset) / 3600.0
+        top.plot(hours, log.voltage_v, color='tab:blue', lw=0.8, label='log' if index == 0 else None)
+        top.plot(hours, model, color='tab:orange', lw=0.8, label='fitted model (replayed)' if index == 0 else None)
+        bottom.plot(hours, 1000.0 * (model - log.voltage_v) / series, color='tab:gray', lw=0.6)
+        if (~mask).any():
+            for axis in (top, bottom):
+                axis.axvspan(hours[~mask][0], hours[-1], color='tab:red', alpha=0.08,
+                             label='held out' if index == 0 and axis is top else None)
+        offset += log.time_s[-1] + 60.0
+    top.set_ylabel('pack voltage, V')
+    top.set_title('battery_fit: held-out RMSE %.1f mV per cell, fitted part %.1f mV per cell'
+                  % (1000.0 * numbers.holdout_rmse_v / series, 1000.0 * numbers.fit_rmse_v / series))
+    top.legend(loc='best')
+    bottom.set_ylabel('model - log, mV per cell')
+    bottom.set_xlabel('time, h (logs one after another)')
+    bottom.axhline(0.0, color='black', lw=0.5)
+    figure.tight_layout()
+    try:
+        figure.savefig(path, dpi=90)
+    except OSError as error:
+        raise FitError('cannot write the plot %s: %s' % (path, error.strerror)) from None
+    finally:
+        plt.close(figure)
+
+
+def main(argv=None):
+    args = parse_arguments(argv)
+    try:
+        run(args)
+    except FitError as error:
+        sys.stderr.write('\n' if sys.stderr.isatty() else '')
+        sys.exit('%s: %s' % (PROG, error))
+    except KeyboardInterrupt:
+        sys.stderr.write('\n%s: interrupted (no config written)\n' % PROG)
+        sys.exit(130)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,181 @@
+"""A log's conventions found and undone (no ROS): stamps, NaN, the current's sign, the percentage's scale.
+
+sensor_msgs/BatteryState says: current positive while charging, percentage 0..1, NaN for what is not
+measured. Gazebo's battery plugin and some drivers report discharge as positive current, some percentage
+as 0..100; bags hold duplicated and out-of-order stamps. Each is detected and said in ``notes``.
+"""
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from battery_simulator.core.fit import FitError
+
+#: fewer battery samples than this, or a shorter span, is too little to fit anything
+MIN_SAMPLES = 20
+MIN_SPAN_S = 60.0
+#: a pause in the samples longer than this (and than GAP_FACTOR sampling periods) splits a log in two
+GAP_S, GAP_FACTOR = 600.0, 20.0
+#: a current whose standard deviation is below this (after the sensor's noise) has no steps, A
+MIN_CURRENT_SPREAD_A = 0.02
+
+
+@dataclass
+class FitLog:
+    """One log, ready to fit: arrays over the battery samples (current positive charging, percentage
+    0..1 or NaN, temperature or None) and the motion (|v|, |w| as seen at each battery sample, or None)."""
+
+    name: str
+    time_s: np.ndarray
+    voltage_v: np.ndarray
+    current_a: np.ndarray
+    temperature_c: np.ndarray = None
+    percentage: np.ndarray = None
+    #: the mean |v| and |w| over each sample's interval, and the latest command at each sample (None: no motion)
+    speed_mean: np.ndarray = None
+    turn_mean: np.ndarray = None
+    speed_now: np.ndarray = None
+    turn_now: np.ndarray = None
+    source: str = ''
+    current_inverted: bool = False
+    notes: list = field(default_factory=list)
+
+
+def prepare(raw, cmd_vel_timeout_s=0.5):
+    """A FitLog from a RawLog; FitError (one line) when nothing can be fitted from it."""
+    name = raw.name
+    notes = list(raw.notes)
+    t = np.asarray(raw.time_s, dtype=float)
+    v = np.asarray(raw.voltage_v, dtype=float)
+    i = np.asarray(raw.current_a, dtype=float)
+    temp = np.asarray(raw.temperature_c, dtype=float) if len(raw.temperature_c) == len(t) else np.full(len(t), np.nan)
+    pct = np.asarray(raw.percentage, dtype=float) if len(raw.percentage) == len(t) else np.full(len(t), np.nan)
+    if len(t) == 0:
+        raise FitError('%s: no battery samples' % name)
+    if not np.isfinite(v).any() or not (v > 0).any():
+        raise FitError('%s: every voltage is NaN or not positive (%d samples): nothing to fit' % (name, len(v)))
+    if not np.isfinite(i).any():
+        raise FitError('%s: every current is NaN (%d samples): the current is needed to fit' % (name, len(i)))
+    usable = np.isfinite(t) & np.isfinite(v) & (v > 0) & np.isfinite(i)
+    if (~usable).any():
+        notes.append('%d of %d samples without a voltage or current (NaN) left out' % ((~usable).sum(), len(t)))
+    t, v, i, temp, pct = t[usable], v[usable], i[usable], temp[usable], pct[usable]
+    if (np.diff(t) < 0).any():
+        notes.append('%d stamps out of order: sorted' % (np.diff(t) < 0).sum())
+        order = np.argsort(t, kind='stable')
+        t, v, i, temp, pct = t[order], v[order], i[order], temp[order], pct[order]
+    duplicate = np.concatenate([np.diff(t) == 0, [False]])
+    if duplicate.any():
+        notes.append('%d duplicated stamps: the last sample of each kept' % duplicate.sum())
+        keep = ~duplicate
+        t, v, i, temp, pct = t[keep], v[keep], i[keep], temp[keep], pct[keep]
+    if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_SPAN_S:
+        raise FitError('%s: too short to fit: %d usable samples over %.0f s (at least %d samples over %.0f s)'
+                       % (name, len(t), t[-1] - t[0] if len(t) else 0.0, MIN_SAMPLES, MIN_SPAN_S))
+    if np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A:
+        raise FitError('%s: the current is constant (%.3f A, spread %.3f A): nothing to identify the resistance '
+                       'from; record a log with current steps (drive, stop, charge)' % (name, np.mean(i), np.std(i)))
+    log = FitLog(name=name, time_s=t - t[0], voltage_v=v, current_a=i, source=raw.source, notes=notes)
+    log.current_inverted = current_is_inverted(t, v, i)
+    if log.current_inverted:
+        log.current_a = -i
+        notes.append('current sign: positive = discharging (as Gazebo\'s plugin reports it), found from how the '
+                     'voltage moves with the current: turned to ROS\'s (positive = charging)')
+    else:
+        notes.append('current sign: ROS\'s (positive = charging), found from how the voltage moves with the current')
+    if np.isfinite(temp).sum() >= MIN_SAMPLES:
+        log.temperature_c = _filled(temp)
+    else:
+        notes.append('no temperature (NaN or absent): the preset\'s thermal values kept')
+    if np.isfinite(pct).sum() >= MIN_SAMPLES:
+        scale = 100.0 if np.nanmax(pct) > 1.5 else 1.0
+        notes.append('percentage: %s' % ('0-100, read as 0-1' if scale == 100.0 else '0-1 (as BatteryState)'))
+        log.percentage = pct / scale
+    if raw.motion_time_s is not None and len(raw.motion_time_s) > 0:
+        _motion_at_samples(log, raw, t, cmd_vel_timeout_s)
+    return log
+
+
+def split_at_gaps(log):
+    """The parts of ``log`` between pauses in its samples (a cycler's export, a bag recorded in pieces): what
+    happened in a pause is unknown, so each part starts from its own SOC. Parts too short are left out."""
+    dt = np.diff(log.time_s)
+    threshold = max(GAP_S, GAP_FACTOR * float(np.median(dt)))
+    cuts = [0] + [k + 1 for k in np.flatnonzero(dt > threshold)] + [len(log.time_s)]
+    if len(cuts) == 2:
+        return [log]
+    parts, dropped = [], 0
+    for number, (start, end) in enumerate(zip(cuts, cuts[1:]), start=1):
+        t = log.time_s[start:end]
+        if end - start < MIN_SAMPLES or t[-1] - t[0] < MIN_SPAN_S or np.std(log.current_a[start:end]) < MIN_CURRENT_SPREAD_A:
+            dropped += 1
+            continue
+        part = replace(log, name='%s#%d' % (log.name, number), time_s=t - t[0],
+                       notes=list(log.notes) + ['part %d of %d between pauses of more than %.0f s (from %.0f s)'
+                                                % (number, len(cuts) - 1, threshold, t[0])])
+        for name in ('voltage_v', 'current_a', 'temperature_c', 'percentage', 'speed_mean', 'turn_mean',
+                     'speed_now', 'turn_now'):
+            value = getattr(log, name)
+            if value is not None:
+                setattr(part, name, value[start:end])
+        parts.append(part)
+    if not parts:
+        raise FitError('%s: every part between its pauses (> %.0f s) is too short or at constant current'
+                       % (log.name, threshold))
+    if dropped:
+        parts[0].notes.append('%d part(s) between pauses too short or at constant current: left out' % dropped)
+    return parts
+
+
+def current_is_inverted(t, v, i):
+    """Whether the current is positive while discharging: at a current step the voltage moves with the
+    current in ROS's convention (V = E + R I); with no steps, a voltage falling while the current is
+    positive says the same."""
+    dv, di = np.diff(v), np.diff(i)
+    big = np.abs(di) > max(4.0 * np.median(np.abs(di)), 0.05 * np.ptp(i))
+    if big.sum() >= 3:
+        return float(np.sum(dv[big] * di[big])) < 0.0
+    # no steps: the trend of the voltage against the charge counted with this sign
+    charge = np.concatenate([[0.0], np.cumsum(0.5 * (i[1:] + i[:-1]) * np.diff(t))])
+    if np.ptp(charge) == 0:
+        return False
+    return float(np.polyfit(charge, v, 1)[0]) < 0.0
+
+
+def _filled(values):
+    """NaN gaps filled from the neighbours (the temperature of a few missing samples)."""
+    good = np.isfinite(values)
+    index = np.arange(len(values))
+    return np.interp(index, index[good], values[good])
+
+
+def _motion_at_samples(log, raw, t_abs, timeout_s):
+    """|v| and |w| at each battery sample: the latest command (within its timeout) and the mean over the
+    interval before the sample (the energy the simulator accounts for between two updates)."""
+    mt = np.asarray(raw.motion_time_s, dtype=float)
+    order = np.argsort(mt, kind='stable')
+    mt = mt[order]
+    speed = np.asarray(raw.linear_mps, dtype=float)[order]
+    turn = np.asarray(raw.angular_radps, dtype=float)[order]
+    good = np.isfinite(mt) & np.isfinite(speed) & np.isfinite(turn)
+    mt, speed, turn = mt[good], speed[good], turn[good]
+    if len(mt) == 0:
+        return
+    # A held command: speed[k] from mt[k] until min(mt[k+1], mt[k] + timeout).
+    ends = np.minimum(np.concatenate([mt[1:], [np.inf]]), mt + timeout_s)
+    # A piecewise-constant signal on the breakpoints (starts and ends), integrated exactly.
+    points = np.unique(np.concatenate([mt, ends[np.isfinite(ends)], t_abs]))
+    segment = np.searchsorted(mt, points, side='right') - 1
+    held = (segment >= 0) & (points < ends[np.maximum(segment, 0)])
+    seg_speed = np.where(held, speed[np.maximum(segment, 0)], 0.0)
+    seg_turn = np.where(held, turn[np.maximum(segment, 0)], 0.0)
+    widths = np.diff(points)
+    cum_speed = np.concatenate([[0.0], np.cumsum(seg_speed[:-1] * widths)])
+    cum_turn = np.concatenate([[0.0], np.cumsum(seg_turn[:-1] * widths)])
+    at = np.searchsorted(points, t_abs)
+    span = np.diff(t_abs)
+    log.speed_mean = np.concatenate([[0.0], np.diff(cum_speed[at]) / span])
+    log.turn_mean = np.concatenate([[0.0], np.diff(cum_turn[at]) / span])
+    now = np.searchsorted(mt, t_abs, side='right') - 1
+    fresh = (now >= 0) & (t_abs - mt[np.maximum(now, 0)] <= timeout_s)
+    log.speed_now = np.where(fresh, speed[np.maximum(now, 0)], 0.0)
+    log.turn_now = np.where(fresh, turn[np.maximum(now, 0)], 0.0)

@@ -1,0 +1,125 @@
+"""``battery_doctor.py`` (ROS 1): what a live graph of batteries and their consumers gets wrong.
+
+    rosrun battery_simulator battery_doctor.py [--wait S] [--sample S]
+
+Asks the master (getSystemState, getTopicTypes) for every battery or velocity topic, and each node
+on them (its slave API: getPublications / getSubscriptions, with a bound of ``--wait`` seconds,
+default 2) for the type it really uses (the master keeps one type a topic), samples each battery
+topic for up to ``--sample`` seconds (default 3), then prints core/doctor.py's report. ROS 1 has no
+QoS. Exit 0 when clean, 1 when it found something, 2 for a bad command line or no ROS master.
+"""
+import sys
+import time
+import xmlrpc.client
+
+from battery_simulator.core import doctor
+
+CALLER_ID = '/battery_doctor'
+
+
+class _TimeoutTransport(xmlrpc.client.Transport):
+    """An XML-RPC transport whose connections give up after ``timeout_s``."""
+
+    def __init__(self, timeout_s):
+        super().__init__()
+        self._timeout_s = timeout_s
+
+    def make_connection(self, host):
+        connection = super().make_connection(host)
+        connection.timeout = self._timeout_s
+        return connection
+
+
+def _node_types(master, node, timeout_s):
+    """({topic: type} published, {topic: type} subscribed) by ``node``, from its own API; ({}, {}) if it
+    does not answer in time."""
+    try:
+        uri = master.lookupNode(node)
+        proxy = xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport(timeout_s))
+        code_p, _, published = proxy.getPublications(CALLER_ID)
+        code_s, _, subscribed = proxy.getSubscriptions(CALLER_ID)
+    except Exception:   # a node gone or hung: the master's type stands in
+        return {}, {}
+    return (dict(published) if code_p == 1 else {}), (dict(subscribed) if code_s == 1 else {})
+
+
+def describe(master, timeout_s):
+    """The graph as the master and the nodes tell it: every battery or velocity topic."""
+    publishers, subscribers, _ = master.getSystemState()
+    master_types = dict(master.getTopicTypes())
+    cache = {}
+
+    def types_of(node):
+        if node not in cache:
+            cache[node] = _node_types(master, node, timeout_s)
+        return cache[node]
+
+    graph = doctor.Graph(has_qos=False)
+    listed = {}
+    for name, nodes in publishers:
+        listed.setdefault(name, ([], []))[0].extend(nodes)
+    for name, nodes in subscribers:
+        listed.setdefault(name, ([], []))[1].extend(nodes)
+    for name, (pub_nodes, sub_nodes) in sorted(listed.items()):
+        fallback = master_types.get(name, '*')
+        if not doctor.topic_of_interest(name, [fallback]):
+            # a topic the master types otherwise may still be one a node takes as BatteryState or Twist
+            node_types = [types_of(n)[0].get(name) for n in pub_nodes] + [types_of(n)[1].get(name) for n in sub_nodes]
+            if not doctor.topic_of_interest(name, [t for t in node_types if t]):
+                continue
+        topic = graph.topic(name)
+        topic.publishers += [doctor.Endpoint(n, types_of(n)[0].get(name, fallback)) for n in sorted(set(pub_nodes))]
+        topic.subscribers += [doctor.Endpoint(n, types_of(n)[1].get(name, fallback)) for n in sorted(set(sub_nodes))]
+    return graph
+
+
+def sample(graph, seconds):
+    """Up to doctor.SAMPLES_PER_TOPIC BatteryState samples of each published battery topic, within ``seconds``."""
+    import rospy
+    from sensor_msgs.msg import BatteryState
+
+    def _record(msg, topic):
+        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status)))
+
+    wanted = [(name, topic) for name, topic in sorted(graph.topics.items())
+              if any(doctor.is_battery_type(e.type) for e in topic.publishers)]
+    subscribers = [rospy.Subscriber(name, BatteryState, _record, callback_args=topic, queue_size=10)
+                   for name, topic in wanted]
+    deadline = time.monotonic() + seconds
+    while wanted and time.monotonic() < deadline and not rospy.is_shutdown():
+        if all(len(topic.samples) >= doctor.SAMPLES_PER_TOPIC for _, topic in wanted):
+            break
+        time.sleep(0.05)
+    for subscriber in subscribers:
+        subscriber.unregister()
+
+
+def main(argv=None):
+    import rosgraph
+    import rospy
+    argv = rospy.myargv(sys.argv)[1:] if argv is None else argv
+    try:
+        options = doctor.parse_arguments(argv, 'battery_doctor.py')
+    except doctor.UsageError as error:
+        print(error, file=sys.stderr)
+        sys.exit(doctor.EXIT_USAGE)
+    master = rosgraph.Master(CALLER_ID)
+    try:
+        master.getPid()
+    except Exception:
+        print('battery_doctor.py: no ROS master at %s: start roscore, or set ROS_MASTER_URI'
+              % rosgraph.get_master_uri(), file=sys.stderr)
+        sys.exit(doctor.EXIT_USAGE)
+    code = doctor.EXIT_USAGE
+    try:
+        graph = describe(master, options['wait'])
+        rospy.init_node('battery_doctor', anonymous=True, disable_signals=True, disable_rosout=True)
+        sample(graph, options['sample'])
+        lines, code = doctor.report(graph)
+        print('\n'.join(lines), flush=True)
+    except KeyboardInterrupt:
+        code = 130
+    finally:
+        if rospy.core.is_initialized():
+            rospy.signal_shutdown('battery_doctor done')
+    sys.exit(code)

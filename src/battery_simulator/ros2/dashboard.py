@@ -1,0 +1,250 @@
+"""The live dashboard on ROS 2 (battery_dashboard): every sensor_msgs/msg/BatteryState on the graph, in a browser.
+
+    ros2 run battery_simulator battery_dashboard --ros-args -p port:=8090 -p allow_control:=true
+
+The same pages, API and rules as ROS 1's ``battery_dashboard.py``
+(web/dashboard_app.py, web/dashboard_model.py, web/dashboard_rules.py): it
+finds every BatteryState topic on the graph (and, beside each,
+``battery_low``, ``battery_critical`` and ``battery_simulator/state``; every
+``BatteryFleetState`` topic), subscribes to them, and serves the pages with
+tornado on the main thread; rclpy's executor runs in a thread of its own and
+writes the model under the hub's lock.
+
+Cost: each wake-up of rclpy's executor rebuilds its wait set over every
+subscription, so a robot that a fleet host carries on ``/battery_fleet/states``
+is read from there (one message a second for the whole fleet) rather than
+from its own ``battery_status`` and ``battery_simulator/state``; only its
+``battery_low`` / ``battery_critical`` (transient local, said on a change)
+are subscribed. One timer: the graph scan.
+
+:Parameters (read-only, checked at start-up: one line and exit 2 for a bad one):
+  - ``host`` (str): address to listen on (default 127.0.0.1; 0.0.0.0: every interface)
+  - ``port`` (int, 1..65535): TCP port (default 8090)
+  - ``scan_period`` (float, s, 0 < p <= 3600): how often the graph is looked at for new topics (default 2)
+  - ``history_s`` (float, s, 10 <= h <= 86400): the charts' span; a silent battery leaves after it (default 600)
+  - ``allow_control`` (bool): buttons that call set_state, set_charging, inject_fault (default false)
+
+:Subscribes (QoS: whatever the publishers offer, reliable or best effort, transient local or volatile):
+  - every ``sensor_msgs/msg/BatteryState`` topic no fleet host carries, its ``<ns>/battery_simulator/state``;
+    every battery's ``<ns>/battery_low``, ``<ns>/battery_critical``; every ``BatteryFleetState`` topic
+:Calls (only with allow_control):
+  - ``<ns>/battery_simulator/set_state``, ``set_charging``, ``inject_fault``
+"""
+import asyncio
+import functools
+import threading
+import time
+
+import rclpy
+import tornado.ioloop
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool
+
+from battery_simulator.msg import BatteryFleetState, BatterySimState
+from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
+                                            parameter_name)
+from battery_simulator.srv import InjectFault, SetState
+from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
+                                                bridge_tornado_logs, chart_library_problem, make_app, server_options,
+                                                start_pushing)
+from battery_simulator.web.dashboard_model import fleet_battery_topic, namespace_of
+from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, NODE_NAME, SERVICE_WAIT_S, battery_values,
+                                                   call_line, finish_settings, fleet_host, listen_problem,
+                                                   ready_line, request_fields, ros1_type_name, service_name,
+                                                   sim_values, subscriptions)
+
+SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
+#: every subscription takes what its publishers offer: a driver's best-effort battery_status as well as the
+#: simulator's reliable one, the simulator's transient local battery_low (its latest word at once)
+QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_AVAILABLE,
+                 durability=DurabilityPolicy.BEST_AVAILABLE)
+#: a battery a fleet message named within this long is read from its host's messages
+FLEET_SERVED_S = 10.0
+
+
+def gid_key(gid):
+    """A publisher's GID as bytes, from a received message's info (a dict with 'data') or the graph's
+    endpoint info (a sequence of ints); the first 16 bytes (what both carry)."""
+    if isinstance(gid, dict):
+        gid = gid.get('data', b'')
+    return bytes(gid)[:16] if gid is not None else b''
+
+
+class BatteryDashboard(Node):
+    """The ROS side: subscriptions that follow the graph, and the service calls."""
+
+    def __init__(self):
+        super().__init__(NODE_NAME)
+        self.settings = finish_settings(declare_settings(self, DASHBOARD_SETTINGS))
+        self.hub = None
+        self._subscribed = {}   # (kind, topic) -> Subscription
+        self._kinds = {'battery': (BatteryState, self._on_battery), 'low': (Bool, self._on_level),
+                       'critical': (Bool, self._on_level), 'state': (BatterySimState, self._on_sim_state),
+                       'fleet': (BatteryFleetState, self._on_fleet)}
+        self._fleet_named = {}     # battery topic -> monotonic time a fleet message last named it
+        self._hosts = {}           # publisher GID -> node name (fleet hosts)
+        self._service_clients = {}         # service name -> Client
+        self._service_lock = threading.Lock()
+
+    def start(self, hub):
+        self.hub = hub
+        self.scan()
+        self.create_timer(self.settings['scan_period'], self.scan, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    # -- discovery (the executor's thread)
+    def scan(self):
+        """Subscribe to new topics, drop those gone (their batteries go stale, then away)."""
+        try:
+            published = [(topic, ros1_type_name(topic_type)) for topic, types in self.get_topic_names_and_types()
+                         for topic_type in types]
+        except Exception as error:   # noqa: B902 (the context is going down: nothing to scan)
+            self.get_logger().warning('%s: cannot scan the graph (%s)' % (NODE_NAME, error),
+                                      throttle_duration_sec=30.0)
+            return
+        now = time.monotonic()
+        served = {battery for battery, named in self._fleet_named.items() if now - named < FLEET_SERVED_S}
+        wanted, controls = subscriptions(published, served)
+        with self.hub.lock:
+            for battery, has_controls in controls.items():
+                self.hub.model.add(battery, time.time(), has_controls=has_controls)
+        for key in set(self._subscribed) - set(wanted):
+            self.destroy_subscription(self._subscribed.pop(key))
+            if key[0] == 'battery' and key[1] in controls:   # still there: its fleet host's messages bring it
+                with self.hub.lock:
+                    self.hub.model.own_topics_dropped(key[1])
+        for key in set(wanted) - set(self._subscribed):
+            topic, argument = wanted[key]
+            message_type, callback = self._kinds[key[0]]
+            if key[0] == 'fleet':   # two arguments: rclpy hands the message's info (its publisher) too
+                callback = functools.partial(lambda argument, msg, info: self._on_fleet(msg, info, argument), argument)
+            else:
+                callback = functools.partial(callback, argument=argument)
+            self._subscribed[key] = self.create_subscription(message_type, topic, callback, QOS)
+
+    # -- callbacks (the executor's thread)
+    def _on_battery(self, msg, argument):
+        values = battery_values(msg)
+        with self.hub.lock:
+            self.hub.model.on_battery(argument, values, time.time())
+
+    def _on_level(self, msg, argument):
+        battery, kind = argument
+        with self.hub.lock:
+            self.hub.model.on_level_topic(battery, kind, msg.data, time.time())
+
+    def _on_sim_state(self, msg, argument):
+        sim = sim_values(msg)
+        with self.hub.lock:
+            self.hub.model.on_sim_state(argument, sim, time.time())
+
+    def _on_fleet(self, msg, info, argument):
+        """Every host publishes its robots on the one topic: merged by robot name, each robot's host is the
+        node that published it (found on the graph by the publisher's GID)."""
+        fleet, host_namespace = argument
+        host = fleet_host(self._publisher_of(fleet, info.get('publisher_gid')), fleet)
+        entries = [(name, functools.partial(battery_values, state)) for name, state in zip(msg.names, msg.states)]
+        now = time.monotonic()
+        with self.hub.lock:
+            self.hub.model.on_fleet_message(host_namespace, host, entries, time.time())
+            for name, _ in entries:
+                self._fleet_named[fleet_battery_topic(host_namespace, name)] = now
+
+    def _publisher_of(self, topic, gid):
+        """The node that published on ``topic`` with ``gid`` ('' when the graph does not say)."""
+        key = gid_key(gid)
+        if key and key not in self._hosts:
+            for endpoint in self.get_publishers_info_by_topic(topic):
+                self._hosts[gid_key(endpoint.endpoint_gid)] = '%s/%s' % (endpoint.node_namespace.rstrip('/'),
+                                                                         endpoint.node_name)
+        return self._hosts.get(key, '')
+
+    # -- controls (a web worker thread)
+    def call_service(self, battery, action, arguments):
+        """Call one of the three services of the battery's simulator; (SERVICE_OK, SERVICE_REFUSED or
+        SERVICE_UNREACHABLE, message)."""
+        name = service_name(namespace_of(battery), action)
+        with self._service_lock:
+            if name not in self._service_clients:
+                self._service_clients[name] = self.create_client(SERVICE_TYPES[action], name)
+            client = self._service_clients[name]
+        if not client.wait_for_service(timeout_sec=SERVICE_WAIT_S):
+            return SERVICE_UNREACHABLE, '%s: service not available within %g s' % (name, SERVICE_WAIT_S)
+        done = threading.Event()
+        future = client.call_async(SERVICE_TYPES[action].Request(**request_fields(action, arguments)))
+        future.add_done_callback(lambda _future: done.set())
+        if not done.wait(self.hub.call_timeout_s + 1.0):   # the page has had its 504 by then
+            future.cancel()
+            return SERVICE_UNREACHABLE, '%s: no answer' % name
+        response = future.result()
+        if response is None:
+            return SERVICE_UNREACHABLE, '%s: no answer' % name
+        self.get_logger().info(call_line(name, arguments, response.success, response.message))
+        return (SERVICE_OK if response.success else SERVICE_REFUSED), response.message
+
+
+def serve(node, hub):
+    """Listen (one fatal line for a port in use or an address this machine has not) and run the pages on
+    this thread's IOLoop until a signal ends it."""
+    settings = node.settings
+    asyncio.set_event_loop(asyncio.new_event_loop())
+    loop = tornado.ioloop.IOLoop.current()
+    logger = node.get_logger()
+
+    def warn(text):
+        logger.warning('%s: %s' % (NODE_NAME, text))
+
+    def error(text):
+        logger.error('%s: %s' % (NODE_NAME, text))
+    bridge_tornado_logs(warn, error)
+    try:
+        make_app(hub, settings['host'], settings['port'], warn=warn).listen(
+            settings['port'], address=settings['host'], **server_options())
+    except OSError as problem:
+        raise StartupError(listen_problem(problem, settings['host'], settings['port'], parameter_name(node, 'host'),
+                                          parameter_name(node, 'port'))) from None
+    problem = chart_library_problem()
+    if problem:
+        warn(problem)
+    start_pushing(hub)
+    return loop
+
+
+def main(args=None):
+    with ending_quietly():
+        rclpy.init(args=args)
+        node = None
+        try:
+            node = BatteryDashboard()
+            hub = Hub(node.settings['history_s'], node.settings['allow_control'])
+            hub.call_service = node.call_service if node.settings['allow_control'] else None
+            loop = serve(node, hub)
+        except StartupError as error:
+            exit_on_startup_error(error, node.get_logger() if node is not None else None)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.create_task(node.start, hub)   # the first scan and the timer on the executor's thread
+        spinner = threading.Thread(target=_spin, args=(executor,), name='dashboard_ros', daemon=True)
+        spinner.start()
+        node.get_logger().info(ready_line(node.settings))
+        try:
+            loop.start()
+        finally:   # the executor's thread ended before the node goes (else the process aborts at exit)
+            executor.shutdown(timeout_sec=2.0)
+            spinner.join(2.0)
+            node.destroy_node()
+
+
+def _spin(executor):
+    try:
+        executor.spin()
+    except Exception:   # noqa: B902 (the context shut down under it: the main thread ends the process)
+        pass
+
+
+if __name__ == '__main__':
+    main()

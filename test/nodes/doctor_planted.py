@@ -1,0 +1,51 @@
+#!/usr/bin/python3
+"""Plants publishers and subscribers for battery_doctor.py's rostest, all in one rospy node.
+
+    doctor_planted.py NODE_NAME SPEC [SPEC ...]
+    SPEC: pub|sub,topic=/ABS/NAME,type=BatteryState|Twist|TwistStamped[,percentage=P,current=A,status=S]
+    (a BatteryState publisher's values, sent at 5 Hz)
+
+Sets /NODE_NAME/ready once every endpoint exists; ends on SIGINT or SIGTERM.
+"""
+import sys
+
+import rospy
+from geometry_msgs.msg import Twist, TwistStamped
+from sensor_msgs.msg import BatteryState
+
+TYPES = {'BatteryState': BatteryState, 'Twist': Twist, 'TwistStamped': TwistStamped}
+
+
+def main():
+    argv = rospy.myargv(sys.argv)
+    rospy.init_node(argv[1])
+    senders = []
+    keep = []
+    for spec in argv[2:]:
+        role, *pairs = spec.split(',')
+        fields = dict(pair.split('=', 1) for pair in pairs)
+        msg_type = TYPES[fields['type']]
+        if role == 'sub':
+            keep.append(rospy.Subscriber(fields['topic'], msg_type, lambda msg: None))
+            continue
+        msg = msg_type()
+        if msg_type is BatteryState:
+            msg.percentage = float(fields.get('percentage', 0.5))
+            msg.current = float(fields.get('current', -1.0))
+            msg.power_supply_status = int(fields.get('status', BatteryState.POWER_SUPPLY_STATUS_DISCHARGING))
+            msg.voltage = 11.1
+            msg.present = True
+        senders.append((rospy.Publisher(fields['topic'], msg_type, queue_size=10), msg))
+    rospy.set_param('~ready', True)
+    rate = rospy.Rate(5)
+    while not rospy.is_shutdown():
+        for publisher, msg in senders:
+            publisher.publish(msg)
+        try:
+            rate.sleep()
+        except rospy.ROSInterruptException:
+            break
+
+
+if __name__ == '__main__':
+    main()

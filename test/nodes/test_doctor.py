@@ -1,0 +1,89 @@
+#!/usr/bin/python3
+"""rostest: battery_doctor.py beside a live ROS 1 graph (doctor.test: sim.launch in robot1).
+
+Clean with the battery alone (exit 0); then five planted mismatches (ROS 1 has no QoS), each named
+on a 'problem:' line of its own (exit 1)."""
+import os
+import subprocess
+import sys
+import unittest
+
+import rospy
+import rostest
+from sensor_msgs.msg import BatteryState
+
+from rostest_helpers import node_command, stop_process, wait_for
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def run_doctor(*args, timeout_s=40.0):
+    process = subprocess.Popen(node_command('battery_doctor.py') + list(args), stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        output, _ = process.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        stop_process(process)
+        raise AssertionError('battery_doctor.py did not end within %g s' % timeout_s)
+    return process.returncode, output
+
+
+def problems(output):
+    return [line for line in output.splitlines() if line.startswith('problem:')]
+
+
+def plant(name, *specs):
+    process = subprocess.Popen([sys.executable, os.path.join(HERE, 'doctor_planted.py'), name] + list(specs),
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    wait_for(lambda: rospy.has_param('/%s/ready' % name), 20.0, '%s to start' % name)
+    return process
+
+
+class TestDoctor(unittest.TestCase):
+
+    def test_1_clean_then_2_planted(self):
+        first = rospy.wait_for_message('/robot1/battery_status', BatteryState, timeout=30.0)
+        self.assertTrue(0.0 <= first.percentage <= 1.0, first)
+        code, output = run_doctor('--sample', '2')
+        self.assertEqual(code, 0, 'a lone battery is not clean:\n' + output)
+        self.assertFalse(problems(output), output)
+        self.assertIn('publisher   /robot1/battery_status  sensor_msgs/BatteryState  /robot1/battery_state_pub',
+                      output)
+        self.assertIn('QoS (ROS 1: no QoS)', output)
+
+        planted = [
+            plant('planted_a',
+                  'pub,topic=/r7/battery_status,type=BatteryState',
+                  'pub,topic=/r2/cmd_vel,type=TwistStamped',
+                  'pub,topic=/r4/battery_status,type=BatteryState,percentage=85',
+                  'pub,topic=/r5/battery_status,type=BatteryState,current=-2.0,status=1',
+                  'pub,topic=/r6/battery_status,type=BatteryState'),
+            plant('planted_b',
+                  'sub,topic=/r7/battery_state,type=BatteryState',
+                  'sub,topic=/r2/cmd_vel,type=Twist',
+                  'pub,topic=/r6/battery_status,type=BatteryState')]
+        try:
+            code, output = run_doctor('--sample', '3')
+        finally:
+            for process in planted:
+                stop_process(process)
+        found = problems(output)
+        self.assertEqual(code, 1, output)
+        expected = {
+            'unpublished': ('problem: /r7/battery_state:', '/planted_b',
+                            'remap /r7/battery_state:=/r7/battery_status'),
+            'type': ('problem: /r2/cmd_vel:', '/planted_a publishes geometry_msgs/TwistStamped',
+                     '/planted_b subscribes geometry_msgs/Twist only'),
+            'percentage': ('problem: /r4/battery_status:', 'percentage 85 is above 1'),
+            'sign': ('problem: /r5/battery_status:', 'current -2 A is negative', 'CHARGING'),
+            'two': ('problem: /r6/battery_status:', '2 nodes publish', '/planted_a', '/planted_b'),
+        }
+        missing = sorted(kind for kind, words in expected.items()
+                         if len([line for line in found if all(word in line for word in words)]) != 1)
+        self.assertFalse(missing, 'not named once each: %s\n%s' % (missing, output))
+        self.assertEqual(len(found), len(expected), 'unexpected findings:\n' + output)
+
+
+if __name__ == '__main__':
+    rospy.init_node('test_doctor')
+    rostest.rosrun('battery_simulator', 'doctor', TestDoctor)

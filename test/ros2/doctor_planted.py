@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Plants publishers and subscriptions for battery_doctor's tests, one node each, in one process.
+
+    doctor_planted.py SPEC [SPEC ...]
+    SPEC: pub|sub,node=NAME,ns=/robotN,topic=NAME,type=BatteryState|Twist|TwistStamped
+          [,reliability=reliable|best_effort][,durability=volatile|transient_local][,depth=N]
+          [,percentage=P,current=A,status=S]   (a BatteryState publisher's values, sent at 5 Hz)
+
+Prints 'ready' once every endpoint exists; ends on SIGINT or SIGTERM. Run under tools/ros2.sh.
+Endpoints of two types on one topic need two processes (one DDS participant takes one type a topic).
+"""
+import signal
+import sys
+
+import rclpy
+from geometry_msgs.msg import Twist, TwistStamped
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import BatteryState
+
+TYPES = {'BatteryState': BatteryState, 'Twist': Twist, 'TwistStamped': TwistStamped}
+
+
+def plant(spec, executor, keep):
+    role, *pairs = spec.split(',')
+    fields = dict(pair.split('=', 1) for pair in pairs)
+    node = rclpy.create_node(fields['node'], namespace=fields.get('ns', '/'))
+    executor.add_node(node)
+    msg_type = TYPES[fields['type']]
+    qos = QoSProfile(depth=int(fields.get('depth', 10)),
+                     reliability=(ReliabilityPolicy.BEST_EFFORT if fields.get('reliability') == 'best_effort'
+                                  else ReliabilityPolicy.RELIABLE),
+                     durability=(DurabilityPolicy.TRANSIENT_LOCAL if fields.get('durability') == 'transient_local'
+                                 else DurabilityPolicy.VOLATILE))
+    if role == 'sub':
+        keep.append(node.create_subscription(msg_type, fields['topic'], lambda msg: None, qos))
+        return
+    publisher = node.create_publisher(msg_type, fields['topic'], qos)
+    msg = msg_type()
+    if msg_type is BatteryState:
+        msg.percentage = float(fields.get('percentage', 0.5))
+        msg.current = float(fields.get('current', -1.0))
+        msg.power_supply_status = int(fields.get('status', BatteryState.POWER_SUPPLY_STATUS_DISCHARGING))
+        msg.voltage = 11.1
+        msg.present = True
+    keep.append(node.create_timer(0.2, lambda: publisher.publish(msg)))
+
+
+def main():
+    rclpy.init(args=sys.argv[:1])
+    signal.signal(signal.SIGTERM, lambda signum, frame: (_ for _ in ()).throw(KeyboardInterrupt()))
+    executor = SingleThreadedExecutor()
+    keep = []
+    for spec in sys.argv[1:]:
+        plant(spec, executor, keep)
+    print('ready', flush=True)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,114 @@
+"""battery_doctor (ROS 2) beside a live graph: clean with a battery_sim and a correct reader (exit 0);
+each of six planted mismatches (a battery of its own in /r7: battery_sim publishes battery_state too once Part 7 lands) named on a 'problem:' line of its own (exit 1).
+
+The doctor sees the whole ROS domain (the conftest gives this run one of its own), so the clean graph
+is checked before the planted one starts, and the planted one is stopped at the end of its test."""
+import os
+import re
+
+import pytest
+from sensor_msgs.msg import BatteryState
+
+from ros2_probe import NodeProcess, Probe
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PLANTER = os.path.join(HERE, 'doctor_planted.py')
+
+
+@pytest.fixture
+def probe():
+    """A probe of each test's own: its subscriptions end with the test (the doctor would see them)."""
+    probe = Probe('doctor_test_probe')
+    yield probe
+    probe.close()
+
+
+def run_doctor(*args, timeout_s=30.0):
+    doctor = NodeProcess('battery_doctor', args=args)
+    code = doctor.wait(timeout_s)
+    if code is None:
+        doctor.stop()
+        raise AssertionError('battery_doctor did not end within %g s:\n%s' % (timeout_s, doctor.output()))
+    return code, doctor.output()
+
+
+def problems(output):
+    return [line for line in output.splitlines() if line.startswith('problem:')]
+
+
+def started(*specs):
+    process = NodeProcess('python3', args=(PLANTER,) + specs)   # (its log goes to /tmp, named python3_*)
+    assert process.wait_for_output('ready', 20.0), 'planter did not start:\n' + process.output()
+    return process
+
+
+def test_bad_command_line_is_one_line_and_exit_2():
+    code, output = run_doctor('--wait', 'soon')
+    assert code == 2 and output.strip() == \
+        'battery_doctor: --wait soon: must be a number of seconds in (0, 60]', (code, output)
+
+
+def test_a_battery_sim_with_a_correct_reader_is_clean(probe):
+    sim = NodeProcess('battery_sim', '-r', '__ns:=/clean')
+    reader = started('sub,node=docking_server,ns=/clean,topic=battery_status,type=BatteryState,depth=1')
+    try:
+        assert probe.wait_for('/clean/battery_status', BatteryState, timeout_s=20.0) is not None, \
+            'no battery_status from battery_sim:\n' + sim.output()
+        code, output = run_doctor('--sample', '3')
+        assert code == 0 and not problems(output), 'doctor not clean (exit %s):\n%s' % (code, output)
+        assert re.search(r'^publisher +/clean/battery_status +sensor_msgs/msg/BatteryState +/clean/battery_state_pub '
+                         r'\(reliable, volatile', output, re.M), output
+        assert re.search(r'^subscriber +/clean/battery_status +sensor_msgs/msg/BatteryState +/clean/docking_server '
+                         r'\(reliable, volatile', output, re.M), output
+        assert re.search(r'^subscriber +/clean/cmd_vel +geometry_msgs/msg/Twist +/clean/battery_simulator', output,
+                         re.M), output
+        assert re.search(r'^sampled +/clean/battery_status +[1-9]', output, re.M), output
+        assert output.rstrip().endswith('no problems found'), output
+    finally:
+        reader.stop()
+        assert sim.stop() == 0, sim.output()
+
+
+def test_each_planted_mismatch_is_named(probe):
+    sim = NodeProcess('battery_sim', '-r', '__ns:=/r1')
+    # one process per side of a type mismatch: a DDS participant holds one type per topic
+    first = started(
+        'pub,node=battery_state_pub,ns=/r7,topic=battery_status,type=BatteryState',
+        'pub,node=controller_server,ns=/r2,topic=cmd_vel,type=TwistStamped',
+        'pub,node=gz_bridge,ns=/r3,topic=battery_status,type=BatteryState,reliability=best_effort',
+        'pub,node=battery_state_broadcaster,ns=/r4,topic=battery_status,type=BatteryState,percentage=85',
+        'pub,node=inverted_driver,ns=/r5,topic=battery_status,type=BatteryState,current=-2.0,status=1',
+        'pub,node=battery_a,ns=/r6,topic=battery_status,type=BatteryState')
+    second = started(
+        'sub,node=docking_server,ns=/r7,topic=battery_state,type=BatteryState,depth=1',
+        'sub,node=base_driver,ns=/r2,topic=cmd_vel,type=Twist',
+        'sub,node=docking_server,ns=/r3,topic=battery_status,type=BatteryState,depth=1',
+        'pub,node=battery_b,ns=/r6,topic=battery_status,type=BatteryState')
+    try:
+        assert probe.wait_for('/r1/battery_status', BatteryState, timeout_s=20.0) is not None, sim.output()
+        code, output = run_doctor('--sample', '3')
+        found = problems(output)
+        assert code == 1, 'exit %s:\n%s' % (code, output)
+
+        def named(*words):
+            return [line for line in found if all(word in line for word in words)]
+        expected = {
+            'unpublished': ('problem: /r7/battery_state:', '/r7/docking_server',
+                            'remap /r7/battery_state:=/r7/battery_status'),
+            'type': ('problem: /r2/cmd_vel:', '/r2/controller_server publishes geometry_msgs/TwistStamped',
+                     '/r2/base_driver subscribes geometry_msgs/Twist only', 'enable_stamped_cmd_vel'),
+            'qos': ('problem: /r3/battery_status:', 'QoS', '/r3/docking_server subscribes reliable',
+                    '/r3/gz_bridge publishes best_effort'),
+            'percentage': ('problem: /r4/battery_status:', 'percentage 85 is above 1'),
+            'sign': ('problem: /r5/battery_status:', 'current -2 A is negative', 'CHARGING', 'invert_current_sign'),
+            'two': ('problem: /r6/battery_status:', '2 nodes publish', '/r6/battery_a', '/r6/battery_b'),
+        }
+        missing = {kind: words for kind, words in expected.items() if len(named(*words)) != 1}
+        assert not missing, 'not named once each: %s\n%s' % (sorted(missing), output)
+        assert len(found) == len(expected), 'unexpected findings:\n%s' % output
+        assert re.search(r'^publisher +/r3/battery_status +sensor_msgs/msg/BatteryState +/r3/gz_bridge '
+                         r'\(best_effort, volatile', output, re.M), output
+    finally:
+        second.stop()
+        first.stop()
+        assert sim.stop() == 0, sim.output()

@@ -1,0 +1,282 @@
+"""The ROS 2 front end's hardening (issue 33, Part 4 items 10-18 and its low items): duplicates refused,
+shutdown with a goal, state files, predict beside the batteries, parameters, the client, goal status.
+
+Each process runs in a namespace of its own; every wait has a bound."""
+import json
+import os
+import signal
+import statistics
+import threading
+import time
+
+import pytest
+from action_msgs.msg import GoalStatus, GoalStatusArray
+from rcl_interfaces.srv import SetParametersAtomically
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+
+from battery_simulator.action import BatterySim
+from battery_simulator.srv import Predict
+from ros2_probe import LATCHED, NodeProcess, Probe
+
+CHARGING = BatteryState.POWER_SUPPLY_STATUS_CHARGING
+
+
+@pytest.fixture(scope='module')
+def probe():
+    probe = Probe('hardening_probe')
+    yield probe
+    probe.close()
+
+
+def started(probe, ns, process, timeout_s=25.0):
+    assert probe.wait_for(ns + '/battery_status', BatteryState, timeout_s=timeout_s) is not None, \
+        'no %s/battery_status within %g s:\n%s' % (ns, timeout_s, process.output())
+
+
+def stop_all(*processes):
+    for process in processes:
+        process.stop()
+
+
+# -- item 10: one battery per name -------------------------------------------------------------------
+
+@pytest.mark.parametrize('attempt', range(3))
+def test_two_battery_sims_started_together_one_runs(probe, attempt):
+    ns = '/dup%d' % attempt
+    first = NodeProcess('battery_sim', '-r', '__ns:=' + ns, '-p', 'initial_percentage:=80.0')
+    second = NodeProcess('battery_sim', '-r', '__ns:=' + ns, '-p', 'initial_percentage:=40.0')
+    try:
+        ended = [p for p in (first, second) if p.wait(15.0) is not None]
+        assert len(ended) == 1, 'exactly one of two battery_sim in %s must exit (%d did):\n%s\n---\n%s' % (
+            ns, len(ended), first.output(), second.output())
+        loser = ended[0]
+        assert loser.process.returncode != 0 and 'already served by' in loser.output() and \
+            'Traceback' not in loser.output(), loser.output()
+        survivor = second if loser is first else first
+        started(probe, ns, survivor)
+    finally:
+        stop_all(first, second)
+
+
+def test_battery_sim_beside_a_fleet_host_serving_its_robot_exits(probe):
+    fleet = NodeProcess('battery_fleet', '-p', 'robots:=2', '-p', 'prefix:=dupfleet')
+    try:
+        started(probe, '/dupfleet1', fleet)
+        lone = NodeProcess('battery_sim', '-r', '__ns:=/dupfleet1')
+        code = lone.wait(15.0)
+        assert code not in (None, 0), 'battery_sim beside a fleet host serving dupfleet1 did not refuse:\n' + \
+            lone.output()
+        assert 'already served by /battery_fleet' in lone.output(), lone.output()
+        assert fleet.process.poll() is None, 'the fleet host ended:\n' + fleet.output()
+    finally:
+        stop_all(fleet)
+
+
+# -- items 11 and 18: a goal runs EXECUTING, and a stop signal ends it ----------------------------------
+
+def goal_status(probe, ns, status, timeout_s=5.0):
+    """The first goal status array (the action's latched status topic) that has a goal in ``status``."""
+    return probe.wait_for(ns + '/battery_simulator/_action/status', GoalStatusArray,
+                          lambda msg: any(s.status == status for s in msg.status_list), timeout_s, qos=LATCHED)
+
+
+@pytest.mark.parametrize('executable,sig', [('battery_sim', signal.SIGINT), ('battery_sim', signal.SIGTERM),
+                                            ('battery_state_pub', signal.SIGINT), ('battery_fleet', signal.SIGTERM)])
+def test_stop_with_an_active_goal_aborts_it_saves_and_exits_0(probe, tmp_path, executable, sig):
+    state_file = str(tmp_path / 'state.json')
+    ns = '/stop_%s_%d' % (executable, sig)
+    if executable == 'battery_fleet':
+        process = NodeProcess(executable, '-p', 'robots:=1', '-p', 'prefix:=' + ns.strip('/') + '_',
+                              '-p', 'state_file:=' + state_file, '-p', 'initial_percentage:=50.0')
+        ns = ns + '_0'
+    else:
+        process = NodeProcess(executable, '-r', '__ns:=' + ns, '-p', 'state_file:=' + state_file,
+                              '-p', 'initial_percentage:=50.0', '-p', 'wait_s:=0.5')
+    try:
+        started(probe, ns, process)
+        client = probe.action_client(BatterySim, ns + '/battery_simulator')
+        probe.follow(ns + '/battery_simulator/_action/status', GoalStatusArray, LATCHED)
+        handle = probe.send_goal(client, BatterySim.Goal(charge_state=True))
+        assert goal_status(probe, ns, GoalStatus.STATUS_EXECUTING) is not None, \
+            'the goal is not EXECUTING while it runs (item 18)'
+        if os.path.exists(state_file):
+            os.remove(state_file)
+        asked = handle.get_result_async()   # as a client does: it asks for the result once the goal is accepted
+        time.sleep(0.3)
+        os.kill(process.pid, sig)
+        result = probe._result(asked, 5.0, 'the goal\'s result after %s' % sig)
+        assert result.status == GoalStatus.STATUS_ABORTED and 'shutting down' in result.result.battery_status, \
+            (result.status, result.result.battery_status)
+        assert process.wait(5.0) == 0, 'exit %s:\n%s' % (process.process.returncode, process.output())
+        assert 'Traceback' not in process.output() and 'RCLError' not in process.output(), process.output()
+        assert os.path.exists(state_file), 'the state was not saved at shutdown'
+    finally:
+        stop_all(process)
+
+
+# -- item 12: a state_file that is not one, or cannot be written -------------------------------------
+
+@pytest.mark.parametrize('executable', ['battery_sim', 'battery_fleet'])
+def test_a_file_that_is_not_a_state_file_is_never_written_over(tmp_path, executable):
+    user_file = tmp_path / 'my_robot_config.yaml'
+    user_file.write_text('robot: {wheels: 4}\n')
+    process = NodeProcess(executable, '-r', '__ns:=/notstate', '-p', 'state_file:=' + str(user_file))
+    try:
+        code = process.wait(15.0)
+        assert code not in (None, 0), 'a non-state file was accepted:\n' + process.output()
+        lines = [line for line in process.output().splitlines() if 'state_file' in line]
+        assert len(lines) == 1 and 'is not a' in lines[0] and 'never written over' in lines[0], process.output()
+    finally:
+        stop_all(process)
+    assert user_file.read_text() == 'robot: {wheels: 4}\n', 'the user\'s file was written over'
+
+
+@pytest.mark.parametrize('path', ['/nonexistent_dir/x.json', '{tmp}'])
+def test_an_unwritable_state_file_is_one_line_at_start(tmp_path, path):
+    process = NodeProcess('battery_sim', '-r', '__ns:=/unwritable', '-p',
+                          'state_file:=' + path.format(tmp=tmp_path))
+    try:
+        code = process.wait(15.0)
+        assert code not in (None, 0), 'an unwritable state_file was accepted:\n' + process.output()
+        lines = [line for line in process.output().splitlines() if line.strip()]
+        assert len(lines) == 1 and 'state_file' in lines[0] and 'Traceback' not in process.output(), process.output()
+    finally:
+        stop_all(process)
+
+
+# -- item 13: predict never delays the batteries -----------------------------------------------------
+
+def test_a_predict_flood_does_not_delay_another_robot(probe):
+    fleet = NodeProcess('battery_fleet', '-p', 'robots:=2', '-p', 'prefix:=flood', '-p', 'time_scale:=1.0')
+    stop = threading.Event()
+    try:
+        started(probe, '/flood1', fleet)
+        plan = Predict.Request(duration_s=[1.0] * 100000, current_a=[2.0] * 100000, charge_to_percentage=90.0)
+
+        def flood():
+            while not stop.is_set():
+                try:
+                    probe.call(Predict, '/flood0/battery_simulator/predict', plan, timeout_s=20.0)
+                except AssertionError:
+                    pass
+        threads = [threading.Thread(target=flood, daemon=True) for _ in range(4)]
+        for thread in threads:
+            thread.start()
+        time.sleep(1.0)   # the flood under way
+        contact = probe.node.create_publisher(Bool, '/flood1/charger_contact', 10)
+        delays = []
+        for connected in (True, False, True, False, True, False):
+            since = time.monotonic()
+            contact.publish(Bool(data=connected))
+            msg = probe.wait_for('/flood1/battery_status', BatteryState,
+                                 lambda m, c=connected: (m.power_supply_status == CHARGING) == c, 5.0, since=since)
+            assert msg is not None, 'robot1 did not follow its contact within 5 s during the flood'
+            delays.append(time.monotonic() - since)
+        assert statistics.median(delays) < 0.5, 'contact -> status delays during a flood of robot0: %s' % delays
+    finally:
+        stop.set()
+        stop_all(fleet)
+
+
+# -- items 15 and 16: parameters ---------------------------------------------------------------------
+
+@pytest.fixture(scope='module')
+def sim(probe):
+    process = NodeProcess('battery_sim', '-r', '__ns:=/hard', '-p', 'charging:=0', '-p', 'time_scale:=50.0')
+    started(probe, '/hard', process)
+    yield process
+    assert process.stop() == 0, process.output()
+
+
+def test_a_refused_atomic_set_changes_nothing(sim, probe):
+    request = SetParametersAtomically.Request(parameters=[
+        Parameter('charging', value=True).to_parameter_msg(), Parameter('time_scale', value=-1.0).to_parameter_msg()])
+    result = probe.call(SetParametersAtomically, '/hard/battery_simulator/set_parameters_atomically', request).result
+    assert not result.successful and 'time_scale' in result.reason, result
+    since = time.monotonic() + 0.3
+    msg = probe.wait_for('/hard/battery_status', BatteryState, timeout_s=5.0, since=since)
+    assert msg is not None and msg.power_supply_status != CHARGING, 'a refused set started a charge'
+
+
+@pytest.mark.parametrize('value,charging', [(1, True), (0, False), (True, True), (False, False)])
+def test_charging_takes_1_0_true_false_at_run_time(sim, probe, value, charging):
+    assert probe.set_parameter('/hard/battery_simulator', 'charging', value).successful
+    msg = probe.wait_for('/hard/battery_status', BatteryState,
+                         lambda m: (m.power_supply_status == CHARGING) == charging, 5.0, since=time.monotonic())
+    assert msg is not None, 'charging := %r did not act' % value
+
+
+@pytest.mark.parametrize('value', ['yes', 2, 0.5])
+def test_charging_refuses_anything_else_naming_it(sim, probe, value):
+    result = probe.set_parameter('/hard/battery_simulator', 'charging', value)
+    assert not result.successful and 'charging' in result.reason, result
+
+
+def test_time_scale_has_an_upper_bound(sim, probe):
+    result = probe.set_parameter('/hard/battery_simulator', 'time_scale', 1e308)
+    assert not result.successful and 'time_scale' in result.reason, result
+
+
+@pytest.mark.parametrize('value,ok', [('1', True), ('true', True), ('0', True), ('maybe', False), ('2', False)])
+def test_charging_at_start(probe, value, ok):
+    ns = '/start_charging_%s' % value
+    process = NodeProcess('battery_sim', '-r', '__ns:=' + ns, '-p', 'charging:=' + value)
+    try:
+        if ok:
+            started(probe, ns, process)
+        else:
+            assert process.wait(15.0) not in (None, 0), process.output()
+            lines = [line for line in process.output().splitlines() if line.strip()]
+            assert len(lines) == 1 and 'charging' in lines[0], process.output()
+    finally:
+        stop_all(process)
+
+
+# -- item 17: the client notices a dead server -------------------------------------------------------
+
+def test_client_notices_its_server_died(probe):
+    server = NodeProcess('battery_sim', '-r', '__ns:=/dead', '-p', 'time_scale:=1.0', '-p', 'initial_percentage:=50.0')
+    client = None
+    try:
+        started(probe, '/dead', server)
+        client = NodeProcess('battery_sim_client', '-r', '__ns:=/dead', args=['1'])
+        assert client.wait_for_output('harging', 15.0), client.output()
+        time.sleep(1.0)
+        server.stop(signal.SIGKILL)
+        code = client.wait(8.0)
+        assert code == 1, 'the client did not exit 1 within 8 s of its server\'s death (%s):\n%s' % (
+            code, client.output())
+    finally:
+        stop_all(server, *([client] if client else []))
+
+
+def test_client_ctrl_c_ends_it_within_2_s(probe):
+    server = NodeProcess('battery_sim', '-r', '__ns:=/ctrlc', '-p', 'time_scale:=1.0', '-p', 'initial_percentage:=50.0')
+    client = None
+    try:
+        started(probe, '/ctrlc', server)
+        client = NodeProcess('battery_sim_client', '-r', '__ns:=/ctrlc', args=['1'])
+        assert client.wait_for_output('harging', 15.0), client.output()
+        server.stop(signal.SIGKILL)
+        start = time.monotonic()
+        os.kill(client.pid, signal.SIGINT)
+        assert client.wait(2.0) is not None, 'Ctrl-C took more than 2 s:\n' + client.output()
+        assert time.monotonic() - start < 2.0
+    finally:
+        stop_all(server, *([client] if client else []))
+
+
+def test_state_file_json_is_written(tmp_path, probe):
+    """A state file given as a new path is written (the checks refuse only what they must)."""
+    path = tmp_path / 'new.json'
+    process = NodeProcess('battery_sim', '-r', '__ns:=/newstate', '-p', 'state_file:=' + str(path))
+    try:
+        started(probe, '/newstate', process)
+        deadline = time.monotonic() + 10.0
+        while not path.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert path.exists() and 'state_of_charge' in json.loads(path.read_text())
+    finally:
+        stop_all(process)

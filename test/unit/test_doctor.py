@@ -1,0 +1,213 @@
+"""battery_doctor's rules (core/doctor.py), with no ROS: each finding, its fix, and a clean graph."""
+import math
+
+import pytest
+
+from battery_simulator.core.doctor import (BEST_EFFORT, EXIT_CLEAN, EXIT_FOUND, RELIABLE, TRANSIENT_LOCAL,
+                                           VOLATILE, Endpoint, Graph, Sample, findings, listing, report,
+                                           UsageError, parse_arguments, topic_of_interest)
+
+BATTERY = 'sensor_msgs/msg/BatteryState'
+TWIST = 'geometry_msgs/msg/Twist'
+STAMPED = 'geometry_msgs/msg/TwistStamped'
+
+
+def endpoint(node, type_name=BATTERY, reliability=RELIABLE, durability=VOLATILE, depth=10):
+    return Endpoint(node, type_name, reliability, durability, depth)
+
+
+def clean_graph():
+    """A battery_sim in /robot1 with a docking server reading battery_status, and a Twist teleop."""
+    graph = Graph()
+    status = graph.topic('/robot1/battery_status')
+    status.publishers.append(endpoint('/robot1/battery_state_pub'))
+    status.subscribers.append(endpoint('/robot1/docking_server', depth=1))
+    status.samples += [Sample(0.8, -1.5, 2), Sample(0.79, -1.5, 2)]
+    cmd_vel = graph.topic('/robot1/cmd_vel')
+    cmd_vel.publishers.append(endpoint('/robot1/teleop', TWIST))
+    cmd_vel.subscribers.append(endpoint('/robot1/battery_simulator', TWIST, depth=1))
+    return graph
+
+
+def problems_of(graph):
+    found = findings(graph)
+    assert all(line.startswith('problem: ') for line in found), found
+    return found
+
+
+def test_clean_graph_has_no_finding_and_exit_0():
+    lines, status = report(clean_graph())
+    assert status == EXIT_CLEAN and not problems_of(clean_graph()), lines
+    assert lines[-1] == 'no problems found', lines
+
+
+def test_listing_names_every_battery_publisher_and_subscriber_with_type_and_qos():
+    lines = listing(clean_graph())
+    text = '\n'.join(lines)
+    assert ('publisher   /robot1/battery_status  %s  /robot1/battery_state_pub (reliable, volatile, depth 10)'
+            % BATTERY) in lines, text
+    assert ('subscriber  /robot1/battery_status  %s  /robot1/docking_server (reliable, volatile, depth 1)'
+            % BATTERY) in lines, text
+    assert 'subscriber  /robot1/cmd_vel  %s  /robot1/battery_simulator' % TWIST in text, text
+    assert 'percentage 0.79, current -1.5 A, DISCHARGING' in text, text
+
+
+def test_ros1_listing_says_there_is_no_qos_and_no_qos_finding():
+    graph = clean_graph()
+    graph.has_qos = False
+    graph.topics['/robot1/battery_status'].publishers[0] = Endpoint('/robot1/battery_state_pub',
+                                                                    'sensor_msgs/BatteryState')
+    assert 'QoS (ROS 1: no QoS)' in listing(graph)
+    assert problems_of(graph) == []
+
+
+def test_subscribed_battery_topic_nobody_publishes_names_the_remap():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_state').subscribers.append(endpoint('/robot1/docking_server', depth=1))
+    found = problems_of(graph)
+    assert len(found) == 1, found
+    assert found[0].startswith('problem: /robot1/battery_state: subscribed by /robot1/docking_server'), found
+    assert 'remap /robot1/battery_state:=/robot1/battery_status for /robot1/docking_server' in found[0], found
+    assert 'battery_state_topic parameter' in found[0], found
+
+
+def test_unpublished_battery_topic_prefers_the_battery_of_its_own_namespace():
+    graph = clean_graph()
+    graph.topic('/robot2/battery_status').publishers.append(endpoint('/robot2/battery_state_pub'))
+    graph.topic('/robot2/battery_state').subscribers.append(endpoint('/robot2/docking_server'))
+    found = problems_of(graph)
+    assert len(found) == 1 and 'remap /robot2/battery_state:=/robot2/battery_status' in found[0], found
+
+
+def test_unpublished_battery_topic_with_no_battery_anywhere_says_start_one():
+    graph = Graph()
+    graph.topic('/robot1/battery_state').subscribers.append(endpoint('/robot1/docking_server'))
+    found = problems_of(graph)
+    assert len(found) == 1 and 'no battery publishes on the graph' in found[0] and '__ns:=/robot1' in found[0], found
+
+
+def test_twist_stamped_publisher_and_twist_only_subscriber():
+    graph = clean_graph()
+    graph.topic('/robot1/cmd_vel').publishers[0] = endpoint('/robot1/controller_server', STAMPED)
+    found = problems_of(graph)
+    assert len(found) == 1, found
+    assert found[0].startswith('problem: /robot1/cmd_vel: /robot1/controller_server publishes '
+                               'geometry_msgs/TwistStamped, /robot1/battery_simulator subscribes '
+                               'geometry_msgs/Twist only'), found
+    assert 'enable_stamped_cmd_vel: false' in found[0], found
+
+
+def test_twist_publisher_and_twist_stamped_only_subscriber():
+    graph = clean_graph()
+    graph.topic('/robot1/cmd_vel').subscribers[0] = endpoint('/robot1/battery_simulator', STAMPED)
+    found = problems_of(graph)
+    assert len(found) == 1 and 'publishes geometry_msgs/Twist, ' in found[0], found
+    assert 'enable_stamped_cmd_vel: true' in found[0], found
+
+
+def test_a_subscriber_taking_both_velocity_types_matches_either():
+    graph = clean_graph()
+    cmd_vel = graph.topic('/robot1/cmd_vel')
+    cmd_vel.publishers.append(endpoint('/robot1/controller_server', STAMPED))
+    cmd_vel.subscribers.append(endpoint('/robot1/battery_simulator', STAMPED))
+    assert problems_of(graph) == []
+
+
+def test_reliable_subscriber_and_best_effort_publisher():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').publishers[0] = endpoint('/robot1/battery_state_pub',
+                                                                   reliability=BEST_EFFORT)
+    found = problems_of(graph)
+    assert len(found) == 1, found
+    assert ('problem: /robot1/battery_status: QoS cannot match: /robot1/docking_server subscribes reliable, '
+            '/robot1/battery_state_pub publishes best_effort') in found[0], found
+
+
+def test_transient_local_subscriber_and_volatile_publisher():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').subscribers[0] = endpoint('/robot1/docking_server',
+                                                                    durability=TRANSIENT_LOCAL)
+    found = problems_of(graph)
+    assert len(found) == 1 and 'subscribes transient_local' in found[0] and 'publishes volatile' in found[0], found
+
+
+def test_best_effort_subscriber_of_a_reliable_publisher_matches():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').subscribers[0] = endpoint('/robot1/docking_server',
+                                                                    reliability=BEST_EFFORT)
+    assert problems_of(graph) == []
+
+
+def test_percentage_above_1():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples.append(Sample(85.0, -1.5, 2))
+    found = problems_of(graph)
+    assert len(found) == 1 and found[0].startswith('problem: /robot1/battery_status: percentage 85 is above 1'), \
+        found
+    assert 'divide by 100' in found[0], found
+
+
+def test_percentage_of_exactly_1_and_nan_are_fine():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples += [Sample(1.0, 0.0, 4), Sample(math.nan, math.nan, 0)]
+    assert problems_of(graph) == []
+
+
+def test_charging_with_a_negative_current():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples.append(Sample(0.5, -2.0, 1))
+    found = problems_of(graph)
+    assert len(found) == 1, found
+    assert found[0].startswith('problem: /robot1/battery_status: current -2 A is negative while '
+                               'power_supply_status is CHARGING'), found
+    assert 'invert_current_sign' in found[0], found
+
+
+def test_discharging_with_a_positive_current():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples.append(Sample(0.5, 3.0, 2))
+    found = problems_of(graph)
+    assert len(found) == 1 and 'is positive while power_supply_status is DISCHARGING' in found[0], found
+
+
+def test_current_within_the_noise_band_contradicts_nothing():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples += [Sample(0.5, 0.01, 2), Sample(1.0, -0.01, 1)]
+    assert problems_of(graph) == []
+
+
+def test_two_nodes_publishing_one_battery():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').publishers.append(endpoint('/robot1/other_battery'))
+    found = problems_of(graph)
+    assert len(found) == 1, found
+    assert found[0].startswith('problem: /robot1/battery_status: 2 nodes publish this battery '
+                               '(/robot1/battery_state_pub, /robot1/other_battery)'), found
+
+
+def test_several_problems_one_line_each_and_exit_1():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_state').subscribers.append(endpoint('/robot1/docking_server'))
+    graph.topic('/robot1/cmd_vel').publishers[0] = endpoint('/robot1/controller_server', STAMPED)
+    graph.topic('/robot1/battery_status').samples.append(Sample(85.0, -2.0, 1))
+    lines, status = report(graph)
+    problems = [line for line in lines if line.startswith('problem:')]
+    assert status == EXIT_FOUND and len(problems) == 4, lines
+    assert lines[-1] == '4 problem(s) found', lines
+
+
+def test_topics_of_interest_by_type_or_name():
+    assert topic_of_interest('/x', [BATTERY]) and topic_of_interest('/y', ['sensor_msgs/BatteryState'])
+    assert topic_of_interest('/robot1/cmd_vel', ['std_msgs/msg/String'])
+    assert topic_of_interest('/nav/out', [STAMPED])
+    assert not topic_of_interest('/robot1/odom', ['nav_msgs/msg/Odometry'])
+
+
+def test_command_line():
+    assert parse_arguments([]) == {'wait': 2.0, 'sample': 3.0}
+    assert parse_arguments(['--wait', '0.5', '--sample=1']) == {'wait': 0.5, 'sample': 1.0}
+    for bad, named in ((['--wait', '-1'], '--wait -1'), (['--wait', 'nan'], '--wait nan'), (['--sample'], '--sample'),
+                       (['--frobnicate'], '--frobnicate'), (['extra'], 'extra'), (['--wait', '61'], '--wait 61')):
+        with pytest.raises(UsageError) as error:
+            parse_arguments(bad)
+        assert named in str(error.value) and '\n' not in str(error.value), (bad, str(error.value))
