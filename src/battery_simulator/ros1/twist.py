@@ -1,15 +1,12 @@
-"""Velocity commands of either type on ROS 1: geometry_msgs/Twist or TwistStamped (Nav2's default on ROS 2,
-and what a bridged or newer controller sends), told apart by the publisher's connection header."""
+"""Velocity commands of either type on ROS 1 for the robot's loop (core/velocity.py): geometry_msgs/Twist or
+TwistStamped, told apart by each publisher's connection header; the gate's output publishes the type it
+forwards."""
 import rosgraph
 import rospy
 from geometry_msgs.msg import Twist, TwistStamped
 
-TYPES = {'geometry_msgs/Twist': Twist, 'geometry_msgs/TwistStamped': TwistStamped}
-
-
-def twist_of(msg):
-    """The Twist inside a Twist or TwistStamped."""
-    return msg.twist if isinstance(msg, TwistStamped) else msg
+from battery_simulator.core.velocity import twist_of
+from battery_simulator.ros1.messages import VELOCITY_CLASSES as TYPES
 
 
 class TwistSubscriber:

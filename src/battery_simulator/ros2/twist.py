@@ -1,40 +1,29 @@
-"""Velocity commands of either type on ROS 2: geometry_msgs/msg/Twist or TwistStamped (Nav2 Kilted's default),
-the type a topic's publishers have, looked up on the graph (ros1/twist.py is ROS 1's)."""
+"""Velocity commands of either type on ROS 2 for the robot's loop (core/velocity.py's rule, ros2/velocity.py's
+subscription): geometry_msgs/msg/Twist or TwistStamped, the type a topic's publishers send (looked up on the
+graph), and the gate's output publishing the type it forwards (ros1/twist.py is ROS 1's)."""
 from geometry_msgs.msg import Twist, TwistStamped
 
+from battery_simulator.core.velocity import twist_of
 from battery_simulator.ros2.robot_node import steady_clock
-
-TYPE_CHECK_PERIOD_S = 0.5   # wall seconds between looks at a velocity topic's publishers' type
-TYPES = {'geometry_msgs/msg/Twist': Twist, 'geometry_msgs/msg/TwistStamped': TwistStamped}
+from battery_simulator.ros2.velocity import MESSAGE_CLASSES, TYPE_CHECK_S, VelocityInput
 
 
-def twist_of(msg):
-    """The Twist inside a Twist or TwistStamped."""
-    return msg.twist if isinstance(msg, TwistStamped) else msg
-
-
-class TwistSubscriber:
-    """Subscribes ``topic`` with the type its publishers have (Twist until only TwistStamped publishers are
-    seen); ``callback(twist, msg)``. A change of type resubscribes within TYPE_CHECK_PERIOD_S."""
+class TwistSubscriber(VelocityInput):
+    """VelocityInput that follows its publishers' type on a timer of its own (every TYPE_CHECK_S wall seconds)
+    and hands ``callback(twist, msg)`` the message too: the gate forwards it as it came."""
 
     def __init__(self, node, topic, callback, qos=10):
-        self._node, self._callback, self._qos = node, callback, qos
-        self._topic = node.resolve_topic_name(topic)
-        self.msg_type = Twist
-        self._sub = node.create_subscription(Twist, self._topic, self._on_message, qos)
-        self._timer = node.create_timer(TYPE_CHECK_PERIOD_S, self._check_type, clock=steady_clock())
+        self._callback = callback
+        super().__init__(node, topic, None, qos)
+        self._timer = node.create_timer(TYPE_CHECK_S / 2.0, self._follow, clock=steady_clock())
 
-    def _check_type(self):
-        kinds = {TYPES.get(info.topic_type) for info in self._node.get_publishers_info_by_topic(self._topic)}
-        kinds.discard(None)
-        if len(kinds) == 1 and self.msg_type not in kinds:
-            self._node.destroy_subscription(self._sub)
-            self.msg_type = kinds.pop()
-            self._sub = self._node.create_subscription(self.msg_type, self._topic, self._on_message, self._qos)
-            self._node.get_logger().info('%s: taking %s' % (self._topic, self.msg_type.__name__))
+    def _subscribe(self):
+        return self._node.create_subscription(MESSAGE_CLASSES[self.kind], self._topic,
+                                              lambda msg: self._callback(twist_of(msg), msg), self._qos)
 
-    def _on_message(self, msg):
-        self._callback(twist_of(msg), msg)
+    def _follow(self):
+        if self.follow_publishers() is not None:
+            self._node.get_logger().info('%s: taking %s' % (self._topic, self.kind))
 
 
 class TwistPublisher:
