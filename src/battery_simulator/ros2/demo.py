@@ -21,7 +21,6 @@ backs off and patrols again; each phase is logged with the level and published o
 """
 from pathlib import Path
 
-import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -29,14 +28,14 @@ from rclpy.parameter import Parameter
 from battery_simulator.core.parameters import default_config_path, is_number
 from battery_simulator.core.settings import Setting
 from battery_simulator.robot import base, clock as clock_rule, dock_contact, patrol
-from battery_simulator.ros2.battery_sim import OneBattery
+from battery_simulator.ros2.battery_sim import OneBattery, finish
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
 from battery_simulator.ros2.fake_base import FakeBase
 from battery_simulator.ros2.patrol_and_dock import ROS2_DEFAULTS, PatrolAndDock
-from battery_simulator.ros2.robot_node import read_settings, spin_until_stopped
+from battery_simulator.ros2.robot_node import read_settings
 from battery_simulator.ros2.sim_clock import SimClock
-from battery_simulator.ros2.startup import StartupError, ending_quietly, exit_on_startup_error
+from battery_simulator.ros2.startup import BatteryClaim, StartupError, ending_quietly, exit_on_startup_error, init, run
 
 GAUGES = {'ideal': 'battery.yaml', 'realistic': 'battery_realistic.yaml'}
 SPEED = next(s for s in clock_rule.SETTINGS if s.name == 'speed')
@@ -67,10 +66,12 @@ def config_path(settings):
 
 
 class Demo:
-    """The demo's nodes in ``namespace``, from the demo node's settings. Each node takes only the parameters
-    given here (not the command line's: ``speed`` is the clock's, not patrol_and_dock's cruising speed)."""
+    """The demo's nodes in the demo node's namespace, from its settings. Each node takes only the parameters
+    given here (not the command line's: ``speed`` is the clock's, not patrol_and_dock's cruising speed).
+    The nodes first (the battery's claim on its name needs them spinning), then ``start_roles()``."""
 
     def __init__(self, demo_node, settings):
+        self.settings = settings
         ns = demo_node.get_namespace()
 
         def node(name, remaps=(), sim_time=True, **parameters):
@@ -80,49 +81,62 @@ class Demo:
             return Node(name, namespace=ns, use_global_arguments=False, cli_args=cli,
                         parameter_overrides=overrides)
 
+        dock = dict(dock_x=float(settings['dock_x']), dock_y=float(settings['dock_y']))
         self.clock_node = node('sim_clock', sim_time=False)
+        self.battery_node = node('battery_simulator', initial_percentage=float(settings['initial_percentage']),
+                                 config=config_path(settings))
+        self.status_node = node('battery_state_pub', rate=float(settings['rate']),
+                                low_percentage=float(settings['low_percentage']))
+        self.base_node = node('fake_base', x=START_X_M)
+        self.contact_node = node('battery_dock_contact', **dock)
+        self.gate_node = node('battery_cmd_vel_gate', remaps=('cmd_vel_in:=cmd_vel_nav', 'cmd_vel_out:=cmd_vel'))
+        self.patrol_node = node('patrol_and_dock', remaps=('cmd_vel:=cmd_vel_nav',),
+                                speed=float(settings['robot_speed']), **dock)
+        self.nodes = [demo_node, self.clock_node, self.battery_node, self.status_node, self.base_node,
+                      self.contact_node, self.gate_node, self.patrol_node]
+        self.clock = self.battery = None
+
+    def start_roles(self):
+        """Each node's role (StartupError for a bad setting); the clock starts with ``clock.start()``."""
+        settings = self.settings
         self.clock = SimClock(self.clock_node, settings['speed'], 0.0, settings['tick_hz'], start_now=False)
-        battery_node = node('battery_simulator', initial_percentage=float(settings['initial_percentage']),
-                            config=config_path(settings))
-        status_node = node('battery_state_pub', rate=float(settings['rate']),
-                           low_percentage=float(settings['low_percentage']))
-        self.battery = OneBattery(battery_node, status_node)
-        base_node = node('fake_base', x=START_X_M)
-        self.base = FakeBase(base_node, **read_settings(base_node, base.SETTINGS))
-        contact_node = node('battery_dock_contact', dock_x=float(settings['dock_x']), dock_y=float(settings['dock_y']))
-        self.contact = DockContact(contact_node, **read_settings(contact_node, dock_contact.SETTINGS))
-        gate_node = node('battery_cmd_vel_gate', remaps=('cmd_vel_in:=cmd_vel_nav', 'cmd_vel_out:=cmd_vel'))
-        self.gate = CmdVelGate(gate_node)
-        patrol_node = node('patrol_and_dock', remaps=('cmd_vel:=cmd_vel_nav',), speed=float(settings['robot_speed']),
-                           dock_x=float(settings['dock_x']), dock_y=float(settings['dock_y']))
-        self.patrol = PatrolAndDock(patrol_node, **read_settings(patrol_node, patrol.SETTINGS, ROS2_DEFAULTS))
-        self.nodes = [demo_node, self.clock_node, battery_node, status_node, base_node, contact_node, gate_node,
-                      patrol_node]
+        self.battery = OneBattery(self.battery_node, self.status_node)
+        self.base = FakeBase(self.base_node, **read_settings(self.base_node, base.SETTINGS))
+        self.contact = DockContact(self.contact_node, **read_settings(self.contact_node, dock_contact.SETTINGS))
+        self.gate = CmdVelGate(self.gate_node)
+        self.patrol = PatrolAndDock(self.patrol_node,
+                                    **read_settings(self.patrol_node, patrol.SETTINGS, ROS2_DEFAULTS))
+
+    def finish(self):
+        """At a stop signal: the clock stops, the battery's goal ends and its state is saved."""
+        if self.clock is not None:
+            self.clock.stop()
+        return finish(self.battery.front) if self.battery is not None else (lambda: True)
 
 
 def main(args=None):
     with ending_quietly():
-        rclpy.init(args=args)
+        init(args)
         demo_node = Node('battery_demo')
         settings = read_settings(demo_node, SETTINGS)
-        try:
-            demo = Demo(demo_node, settings)
-        except StartupError as error:
-            exit_on_startup_error(error, demo_node.get_logger())
+        demo = Demo(demo_node, settings)
         executor = SingleThreadedExecutor()
         for node in demo.nodes:
             executor.add_node(node)
+        claim = BatteryClaim(demo.battery_node, [demo.battery_node.get_namespace()],
+                             demo.battery_node.get_fully_qualified_name())
+        try:
+            claim.wait(executor)
+            demo.start_roles()
+        except StartupError as error:
+            exit_on_startup_error(error, demo_node.get_logger())
         demo_node.get_logger().info(
             'battery_demo: speed x%g (%g ticks a second), level %g %%, dock below %g %%, gauge %s' % (
                 settings['speed'], settings['tick_hz'], settings['initial_percentage'],
                 100.0 * settings['low_percentage'], settings['gauge']))
         demo.battery.report_ready()
         demo.clock.start()
-        try:
-            spin_until_stopped(executor)
-        finally:
-            demo.clock.stop()
-            demo.battery.front.finish()
+        run(executor, demo.finish, claim)
 
 
 if __name__ == "__main__":

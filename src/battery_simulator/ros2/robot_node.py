@@ -1,11 +1,11 @@
 """What the rclpy nodes of the robot's loop share: a node's main (declared settings, one fatal line for a bad
 one, a clean end on SIGINT or SIGTERM at any moment) and a steady clock for their wall-time timers."""
-import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from battery_simulator.ros2.startup import StartupError, declare_settings, ending_quietly, exit_on_startup_error, spin
+from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error, init,
+                                            run)
 
 
 def steady_clock():
@@ -20,24 +20,19 @@ def read_settings(node, settings, defaults=None):
         exit_on_startup_error(error, node.get_logger())
 
 
+def nothing_to_finish():
+    """``run``'s finish for a node with nothing to save: done at once."""
+    return lambda: True
+
+
 def run_node(name, settings, make, args=None, defaults=None):
-    """A node's main: rclpy.init, Node ``name``, its settings (``defaults`` {name: value} over theirs),
-    ``make(node, **settings)``, spin until a signal."""
+    """A node's main: ``init``, Node ``name``, its settings (``defaults`` {name: value} over theirs),
+    ``make(node, **settings)``, spin until SIGINT or SIGTERM (ros2/startup.py's ``run``; then the role's
+    ``finish()`` if it has one)."""
     with ending_quietly():
-        rclpy.init(args=args)
+        init(args)
         node = Node(name)
-        make(node, **read_settings(node, settings, defaults))
+        role = make(node, **read_settings(node, settings, defaults))
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        spin_until_stopped(executor)
-
-
-def spin_until_stopped(executor):
-    """Spin until a signal. A signal that lands while rclpy converts a message raises a RuntimeError out of
-    pybind11 instead of KeyboardInterrupt ("Unable to convert call argument"): after a signal (the context
-    is shut down) that is the end too, not a traceback."""
-    try:
-        spin(executor)
-    except RuntimeError:
-        if rclpy.ok():
-            raise
+        run(executor, getattr(role, 'finish', nothing_to_finish))

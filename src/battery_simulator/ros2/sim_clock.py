@@ -49,6 +49,11 @@ class SimClock:
     def stop(self):
         self._stopped.set()
 
+    def finish(self):
+        """At a stop signal: no tick after it."""
+        self.stop()
+        return lambda: True
+
     def _hold(self):
         """Publish ``start`` until every ``wait_for`` topic has a publisher (bounded, wall time)."""
         log = self._node.get_logger()
