@@ -9,7 +9,6 @@ together. The report goes to stdout; a progress bar to a terminal's stderr. A lo
 one line, exit status 1 (2 for a bad argument); no config is written then.
 """
 import argparse
-import math
 import os
 import sys
 import time
