@@ -5,7 +5,8 @@ how long until it can take the next one? ``predict`` answers from a copy of a
 BatteryModel, which it never changes: the same model, protection and CC-CV
 charger as the running battery, so the answer agrees with what the battery
 then does. The service ``battery_simulator/predict`` and ``battery_replay.py
---charge`` both use it.
+--charge`` both use it. Its levels are what a robot reads (Part 5): the fuel
+gauge's percentage, which the copy's gauge counts as the running one does.
 
 A plan is a list of Segments. Each runs with the load connected (discharging)
 and adds its current, its power and the motion power of its speed and turn
@@ -76,7 +77,8 @@ class Segment(NamedTuple):
 
 @dataclass(frozen=True)
 class Prediction:
-    """The answer; ``end_*`` at the end of the segments (before any charge)."""
+    """The answer; ``end_*`` at the end of the segments (before any charge); percentages are the fuel
+    gauge's (what the robot reads: the truth with an ideal gauge)."""
 
     feasible: bool             # the segments end without a cut-off
     end_percentage: float
