@@ -3,6 +3,7 @@
 (MCAP or sqlite3) with rosbags."""
 import csv
 import math
+import os
 import random
 from dataclasses import dataclass
 
@@ -32,11 +33,11 @@ def robot_params(overrides=None):
     return from_mapping(dict(ROBOT, **(overrides or {})), origin='test robot')
 
 
-def simulate(params, duration_s=5400.0, seed=1, charge_at_s=None, rest_s=300.0, soc=1.0):
+def simulate(params, duration_s=5400.0, seed=1, charge_at_s=None, rest_s=300.0, soc=1.0, until_soc=None):
     """(battery samples at 1 Hz, cmd_vel samples at 10 Hz as (time, linear x, angular z)).
 
     A rest first, then drives of 20-120 s at random speeds with stops between; from ``charge_at_s`` on
-    the robot stands on its charger (CC-CV)."""
+    the robot stands on its charger (CC-CV); the log ends early where the SOC falls to ``until_soc``."""
     rng = random.Random(seed)
     model = BatteryModel(params, state_of_charge=soc, mode=Mode.IDLE)
     samples, commands = [], []
@@ -56,6 +57,8 @@ def simulate(params, duration_s=5400.0, seed=1, charge_at_s=None, rest_s=300.0, 
             speed = turn = 0.0
         if tick % 10 == 0:
             record(samples, now, model, rng)
+            if until_soc is not None and model.state_of_charge <= until_soc:
+                break
         if now >= rest_s or charging:
             commands.append((now, speed, turn))
         wanted = Mode.CHARGE if charging else (Mode.DISCHARGE if now >= rest_s else Mode.IDLE)
@@ -136,3 +139,158 @@ def write_bag(path, samples, commands, storage, start_s=1.7e9):
             else:
                 message = Twist(linear=Vector3(x=item[1], y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=item[2]))
                 writer.write(cmd_vel, stamp_ns, serialize(message, Twist.__msgtype__))
+
+
+# -- packs that are not LG HG2 (issue 36's vehicle case) --------------------------------------------------
+
+#: An NMC811 cell's OCV (the LG M50, 5 Ah): the full cell's U = U_pos(y) - U_neg(x) from the electrode fits of
+#: Chen, C.-H.; Brosa Planella, F.; O'Regan, K.; Gastol, D.; Widanage, W. D.; Kendrick, E. (2020),
+#: "Development of Experimental Techniques for Parameterization of Multi-scale Lithium-ion Battery Models",
+#: J. Electrochem. Soc. 167, 080534, doi:10.1149/1945-7111/ab9050 (NMC811 and graphite-SiOx open-circuit
+#: potentials as tanh fits; stoichiometries x 0.0279-0.9014, y 0.9084-0.2661 from 0 to 100 % SOC), evaluated
+#: at these SOC points (see nmc811_ocv below). It lies up to 37 mV below LG HG2's, with other bends.
+NMC811_SOC = (0.0, 0.025, 0.05, 0.075, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.65, 0.7,
+              0.75, 0.8, 0.85, 0.9, 0.95, 0.975, 1.0)
+
+
+def nmc811_ocv(soc):
+    """Chen et al. 2020's full-cell OCV of the LG M50 (NMC811 / graphite-SiOx) at ``soc`` (0..1), V."""
+    soc = numpy.asarray(soc, dtype=float)
+    x, y = 0.0279 + soc * (0.9014 - 0.0279), 0.9084 + soc * (0.2661 - 0.9084)
+    tanh = numpy.tanh
+    positive = (-0.8090 * y + 4.4875 - 0.0428 * tanh(18.5138 * (y - 0.5542)) - 17.7326 * tanh(15.7890 * (y - 0.3117))
+                + 17.5842 * tanh(15.9308 * (y - 0.3120)))
+    negative = (1.9793 * numpy.exp(-39.3631 * x) + 0.2482 - 0.0909 * tanh(29.8538 * (x - 0.1234))
+                - 0.04478 * tanh(14.9159 * (x - 0.2769)) - 0.0205 * tanh(30.4444 * (x - 0.6103)))
+    return positive - negative
+
+
+#: A made-up chemistry for a 24S4P robot pack: flatter in the middle and steeper at the ends than LG HG2 (its
+#: OCV plus a 70 mV wave), as a pack of unknown cells can be.
+MADE_UP_SOC = tuple(k / 20.0 for k in range(21))
+
+
+def made_up_ocv(soc):
+    hg2 = from_mapping({'preset': 'lg_hg2_cell'})
+    soc = numpy.asarray(soc, dtype=float)
+    return numpy.interp(soc, hg2.ocv_soc, hg2.ocv_voltage_v) + 0.07 * numpy.sin(2.0 * math.pi * soc) - 0.03 * soc
+
+
+def _tables(soc_points, ocv):
+    volts = [round(float(v), 4) for v in ocv(soc_points)]
+    # no charge branch, no SOC factor tables: the foreign cell's resistances do not follow LG HG2's
+    return {'ocv_soc': list(soc_points), 'ocv_voltage_v': volts, 'resistance_soc': [], 'r0_soc_factor': [],
+            'r1_soc_factor': [], 'r_fast_soc_factor': [], 'r0_charge_factor': 1.0, 'r1_charge_factor': 1.0,
+            'r_fast_charge_factor': 1.0, 'cell_cutoff_voltage_v': volts[0], 'cell_charge_voltage_v': volts[-1]}
+
+
+#: A vehicle: 96S1P of 60 Ah NMC811 cells (about 350 V, 21 kWh), resistances of such a cell (0.9 mOhm ohmic,
+#: a 40 s and a 4 s RC pair), its cell's heat.
+VEHICLE = dict({'preset': 'lg_hg2_cell', 'name': 'test_vehicle', 'cells_series': 96, 'cells_parallel': 1,
+                'cell_capacity_ah': 60.0, 'r0_ohm': 0.0009, 'r1_ohm': 0.0006, 'tau1_s': 40.0,
+                'r_fast_ohm': 0.0003, 'tau_fast_s': 4.0, 'load_current_a': 0.0, 'cell_heat_capacity_j_per_k': 1000.0,
+                'cell_heat_transfer_w_per_k': 1.5, 'cell_max_discharge_current_a': 400.0,
+                'cell_max_charge_current_a': 200.0, 'charge_current_a': 30.0, 'hysteresis_ah': 0.5},
+               **_tables(NMC811_SOC, nmc811_ocv))
+#: the vehicle's BMS: voltage sigma 0.1 V (pack), current sigma 0.2 A, at 10 Hz
+VEHICLE_VOLTAGE_NOISE_V, VEHICLE_CURRENT_NOISE_A, VEHICLE_RATE_HZ = 0.1, 0.2, 10.0
+
+#: The 24S4P robot pack of a made-up chemistry (3.0 Ah cells), a heavier robot than ROBOT.
+FOREIGN_ROBOT = dict({'preset': 'lg_hg2_cell', 'name': 'test_foreign_robot', 'cells_series': 24,
+                      'cells_parallel': 4, 'cell_capacity_ah': 3.0, 'r0_ohm': 0.03, 'r1_ohm': 0.02, 'tau1_s': 300.0,
+                      'r_fast_ohm': 0.01, 'tau_fast_s': 20.0, 'load_current_a': 2.0, 'drive_power_w_per_mps': 500.0,
+                      'turn_power_w_per_radps': 80.0, 'charge_current_a': 6.0},
+                     **_tables(MADE_UP_SOC, made_up_ocv))
+
+
+def vehicle_params():
+    return from_mapping(VEHICLE, origin='test vehicle')
+
+
+def foreign_robot_params():
+    return from_mapping(FOREIGN_ROBOT, origin='test foreign robot')
+
+
+def drive_power_w(rng, duration_s, rate_hz=VEHICLE_RATE_HZ):
+    """A car's battery power (W, positive = into the battery) at ``rate_hz``: urban stretches (accelerate to
+    30-60 km/h, cruise, brake with regeneration, stand 5-40 s) and highway stretches (90-130 km/h with
+    overtaking), 1800 kg, rolling 0.01, CdA 0.65 m2, drive 90 % up to 100 kW, regeneration up to 50 kW, 800 W
+    auxiliaries."""
+    dt = 1.0 / rate_hz
+    count = int(duration_s * rate_hz) + 1
+    speed, power = 0.0, numpy.empty(count)
+    plan, k = [], 0
+    while len(plan) < count:
+        if rng.random() < 0.5:   # an urban stretch of 3-6 min
+            end = len(plan) + int(rng.uniform(180, 360) * rate_hz)
+            while len(plan) < end:
+                target = rng.uniform(30, 60) / 3.6
+                plan += [('accelerate', target, rng.uniform(1.0, 2.5))] * int(rng.uniform(15, 45) * rate_hz)
+                plan += [('brake', 0.0, rng.uniform(1.0, 3.0))] * int(rng.uniform(8, 20) * rate_hz)
+                plan += [('stand', 0.0, 0.0)] * int(rng.uniform(5, 40) * rate_hz)
+        else:                    # a highway stretch of 4-8 min
+            end = len(plan) + int(rng.uniform(240, 480) * rate_hz)
+            while len(plan) < end:
+                plan += [('accelerate', rng.uniform(90, 130) / 3.6, rng.uniform(0.5, 2.0))] * int(
+                    rng.uniform(20, 90) * rate_hz)
+    for k in range(count):
+        action, target, rate = plan[k]
+        if action == 'accelerate':
+            accel = min(rate, (target - speed) / dt) if speed < target else max(-0.8, (target - speed) / dt)
+        elif action == 'brake':
+            accel = max(-rate, -speed / dt)
+        else:
+            accel = -speed / dt
+        speed = max(0.0, speed + accel * dt)
+        force = 1800.0 * accel + 1800.0 * 9.81 * 0.01 * (speed > 0) + 0.5 * 1.2 * 0.65 * speed ** 2
+        wheel = force * speed
+        battery = min(100000.0, wheel / 0.9) if wheel > 0 else max(-50000.0, 0.6 * wheel)
+        power[k] = -(battery + 800.0)
+    return power
+
+
+def simulate_vehicle(params, soc_from, soc_to, seed):
+    """A drive at 10 Hz from SOC ``soc_from`` until ``soc_to``: samples (with the BMS's noise) and the true
+    SOC at each."""
+    rng = random.Random(seed)
+    model = BatteryModel(params, state_of_charge=soc_from, mode=Mode.DISCHARGE)
+    power = drive_power_w(rng, 4.0 * 3600.0)
+    dt = 1.0 / VEHICLE_RATE_HZ
+    samples, socs = [], []
+    for k, p in enumerate(power):
+        snapshot = model.snapshot()
+        samples.append(Sample(k * dt, snapshot.voltage_v + rng.gauss(0.0, VEHICLE_VOLTAGE_NOISE_V),
+                              snapshot.current_a + rng.gauss(0.0, VEHICLE_CURRENT_NOISE_A), snapshot.temperature_c,
+                              snapshot.percentage / 100.0))
+        socs.append(model.state_of_charge)
+        if model.state_of_charge <= soc_to:
+            break
+        model.step(dt, power_w=p)
+    return samples, socs
+
+
+def vehicle_logs(directory, params=None, spans=((0.9, 0.5, 21), (0.7, 0.3, 22))):
+    """Two drives of the vehicle as CSVs (overlapping SOC ranges: the default hold-out of the first lies within
+    the range the second's fitted part covers): [(path, true SOC per sample)]."""
+    params = params or vehicle_params()
+    out = []
+    for index, (soc_from, soc_to, seed) in enumerate(spans):
+        samples, socs = simulate_vehicle(params, soc_from, soc_to, seed)
+        path = os.path.join(str(directory), 'drive%d.csv' % (index + 1))
+        write_csv(path, samples)
+        out.append((path, numpy.asarray(socs)))
+    return out
+
+
+def foreign_robot_logs(directory, params=None, spans=((0.95, 0.55, 31), (0.75, 0.35, 32))):
+    """Two logs of the 24S4P robot (BatteryState at 1 Hz, cmd_vel at 10 Hz) between these SOCs, as CSVs:
+    [(path, true SOC per sample)]."""
+    params = params or foreign_robot_params()
+    out = []
+    for index, (soc_from, soc_to, seed) in enumerate(spans):
+        samples, commands = simulate(params, duration_s=4.0 * 3600.0, seed=seed, soc=soc_from, rest_s=120.0,
+                                     until_soc=soc_to)
+        path = os.path.join(str(directory), 'robot%d.csv' % (index + 1))
+        write_csv(path, samples, commands)
+        out.append((path, numpy.asarray([s.percentage for s in samples])))
+    return out

@@ -264,3 +264,25 @@ def test_config_comments_every_fitted_value(robot_log, tmp_path, capsys):
         if key in ('cell_capacity_ah', 'r0_ohm', 'drive_power_w_per_mps'):
             assert '+-' in line and '#' in line, 'a fitted value needs its source and uncertainty: %r' % line
     assert not any(isinstance(v, float) and not math.isfinite(v) for v in values.values()), 'NaN in the config'
+
+
+def test_a_users_file_is_never_written_over(tmp_path, capsys):
+    """-o naming one of the logs, or a file battery_fit did not write, is refused (one line, exit 2); a config
+    it wrote before may be written again."""
+    log = _csv(tmp_path / 'run.csv', [(t, 12.0, -1.0) for t in range(30)])
+    mine = tmp_path / 'my_robot_config.yaml'
+    mine.write_text('preset: lg_hg2_3s1p  # the user\'s own\n')
+    for output, words in ((log, 'is one of the logs'), (str(mine), 'is not a config battery_fit wrote')):
+        before = open(output).read()
+        with pytest.raises(SystemExit) as stop:
+            fit_cli.main([log, '-o', output])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err
+        assert words in err and len(err.strip().splitlines()) == 1, err
+        assert open(output).read() == before, 'the file must be left as it was'
+    from battery_simulator.cli.fit import output_problem
+    from battery_simulator.core.fit.config_writer import WRITTEN_BY
+    earlier = tmp_path / 'earlier.yaml'
+    earlier.write_text(WRITTEN_BY + ': battery_fit run.csv -o earlier.yaml\npreset: lg_hg2_cell\n')
+    assert output_problem(str(earlier), [log]) is None
+    assert output_problem(str(tmp_path / 'new.yaml'), [log]) is None

@@ -53,3 +53,30 @@ def test_a_bad_entry_is_one_line_naming_the_robot_and_the_key(robots, message):
 def test_a_prefix_that_makes_no_name_is_refused():
     with pytest.raises(FleetError, match="~prefix = '9' is invalid"):
         robot_specs(2, prefix='9')
+
+
+def test_each_config_is_loaded_once_and_a_bad_one_names_its_robot():
+    from battery_simulator.core.fleet import FleetError, robot_configs, robot_specs
+    loads = []
+
+    def load(path):
+        loads.append(path)
+        if path == 'bad.yaml':
+            raise ValueError('no such file')
+        return 'params of %s' % path
+    robots = robot_specs([{'name': 'a', 'config': 'x.yaml'}, {'name': 'b', 'config': 'x.yaml'},
+                          {'name': 'c'}], config='default.yaml')
+    assert robot_configs(robots, load, {'default.yaml': 'given'}) == {'default.yaml': 'given',
+                                                                       'x.yaml': 'params of x.yaml'}
+    assert loads == ['x.yaml']
+    with pytest.raises(FleetError, match=r"^robot d: config = 'bad.yaml' is invalid: no such file$"):
+        robot_configs(robot_specs([{'name': 'd', 'config': 'bad.yaml'}]), load)
+
+
+def test_the_fleet_states_message_holds_the_robots_with_a_state():
+    from types import SimpleNamespace
+    from battery_simulator.core.fleet import fleet_states
+    publishers = [('r0', SimpleNamespace(latest_battery=lambda: 'state0')),
+                  ('r1', SimpleNamespace(latest_battery=lambda: None)),     # before its first state, or dropout
+                  ('r2', SimpleNamespace(latest_battery=lambda: 'state2'))]
+    assert fleet_states(publishers) == (['r0', 'r2'], ['state0', 'state2'])

@@ -5,15 +5,21 @@ import math
 
 import pytest
 
+from dataclasses import replace
+
 from battery_simulator.core.battery_model import BatteryModel, Mode, Status
-from battery_simulator.core.parameters import preset
+from battery_simulator.core.pack import make_model
+from battery_simulator.core.parameters import load_yaml, preset
 from battery_simulator.core.prediction import (CHECKPOINT_SEGMENTS, MAX_PLAN_S, MAX_SEGMENTS, PredictionError,
                                                Segment, plan_from_arrays, predict)
 from battery_simulator.core.replay import OUTPUT_COLUMNS
-from test_replay import run_cli
+from test_replay import SOURCE, run_cli
 
 NAN = float('nan')
 PACK = preset('lg_hg2_3s1p')   # 2.78 Ah, base load 1.5 A, charger 1.5 A, 50 W per m/s, 4 W per rad/s
+#: demo.launch gauge:=realistic: PACK in three groups that differ, and a coulomb counter that starts 2 points
+#: high, believes 6 % more capacity than the truth, and counts a 20 mA offset and a 1 % gain error
+REALISTIC = SOURCE.parent / 'config' / 'battery_realistic.yaml'
 
 
 def pack(percentage, mode=Mode.DISCHARGE, params=PACK):
@@ -36,10 +42,11 @@ def stepped(model, segments, step_s=1.0):
 
 
 def charged(model, target_percentage, step_s=1.0):
-    """The reference charge time in fixed steps."""
+    """The reference charge time in fixed steps: until the robot reads the level (the gauge's: the truth
+    with an ideal gauge) or the pack is Full."""
     model.set_mode(Mode.CHARGE)
     time_s = 0.0
-    while not (model.status is Status.FULL or 100.0 * model.state_of_charge >= target_percentage):
+    while not (model.status is Status.FULL or model.gauge_reading()[0] >= target_percentage):
         model.step(step_s)
         time_s += step_s
     return time_s
@@ -315,3 +322,80 @@ def test_one_step_per_short_segment_gives_what_the_careful_steps_give_and_finds_
     for name in ('end_percentage', 'end_voltage_v', 'min_voltage_v', 'max_temperature_c', 'cut_off_at_s',
                  'charge_time_s'):
         assert getattr(fast, name) == pytest.approx(getattr(careful, name), rel=1e-9, abs=1e-9, nan_ok=True), name
+
+
+# -- the gauge's view (Part 5: everything a robot reads, predict's levels included) -------------------
+
+def gauged(percentage, mode=Mode.IDLE):
+    """The realistic pack at ``percentage`` (the truth; its gauge reads 2 points more)."""
+    return make_model(load_yaml(str(REALISTIC)), state_of_charge=percentage / 100.0, mode=mode)
+
+
+@pytest.mark.parametrize('start, target, gauge_ahead', [(90, 95, True), (90, 99, True), (50, 90, True),
+                                                       (20, 90, False), (50, 100, False)])
+def test_with_a_fuel_gauge_the_charge_ends_when_the_gauge_reads_the_level(start, target, gauge_ahead):
+    """charge_to_percentage is the level the robot will read (the gauge's), not the truth's: the charge
+    time agrees with the battery's own steps read through its gauge within Part 3's 2 % (from 90 % to
+    95 % it was 308 s against 191 s: the truth is 2 points behind the gauge and gains on it slowly)."""
+    result = predict(gauged(start), [], target)
+    reference = gauged(start)
+    reference_s = charged(reference, target, step_s=0.5)
+    assert result.charge_time_s == pytest.approx(reference_s, rel=0.02), (result, reference_s)
+    if gauge_ahead:   # from 20 % the gain error has let the truth catch up by 90 %
+        assert reference.status is Status.CHARGING and reference.gauge_reading()[0] >= target
+        assert 100.0 * reference.state_of_charge < target - 0.5, 'the truth is not there yet: the gauge decides'
+
+
+def test_with_a_fuel_gauge_a_level_the_gauge_already_reads_takes_no_charge():
+    model = gauged(90)
+    assert model.gauge_reading()[0] == pytest.approx(92.0), 'initial_error: 2 points'
+    assert predict(model, [], 91.0).charge_time_s == 0.0, 'the robot reads 92 %: already there'
+    assert predict(model, [], 93.0).charge_time_s > 0.0
+
+
+def test_with_a_fuel_gauge_end_percentage_is_what_the_gauge_reads():
+    """Part 3's 1 point against the battery's own steps, on the gauge's percentage (not the truth's)."""
+    plan = [Segment(1800, power_w=10.0, speed_mps=0.2), Segment(600, current_a=1.0)]
+    result = predict(gauged(90), plan, 95.0)
+    reference, cut_off_s = stepped(gauged(90), plan)
+    assert result.feasible and math.isnan(cut_off_s)
+    assert result.end_percentage == pytest.approx(reference.gauge_reading()[0], abs=1.0), result
+    assert result.end_percentage > 100.0 * reference.state_of_charge + 2.0, 'the gauge reads high, not the truth'
+    assert result.charge_time_s == pytest.approx(charged(reference, 95.0, step_s=0.5), rel=0.02)
+
+
+def test_with_a_fuel_gauge_the_cut_off_agrees_and_the_gauge_reads_0_there():
+    plan = [Segment(3000, power_w=20.0), Segment(600)]
+    result = predict(gauged(40), plan)
+    reference, cut_off_s = stepped(gauged(40), plan, step_s=0.1)
+    assert not result.feasible
+    assert result.cut_off_at_s == pytest.approx(cut_off_s, rel=0.02)
+    assert result.end_percentage == reference.gauge_reading()[0] == 0.0, 'recalibrated at the cut-off'
+
+
+def test_until_full_charges_to_full_whatever_the_gauge_reads():
+    """A gauge that believes 10 % too little capacity and does not recalibrate at full reads 100 % before
+    the pack is Full: the robot reads 100 % there (charge_to_percentage 100), battery_replay.py --charge
+    goes on to Full (until_full)."""
+    params = replace(PACK, gauge={'model': 'coulomb_counter', 'capacity_error': -0.1, 'recalibrate_at_full': False})
+    to_100 = predict(make_model(params, 0.2), [], 100.0)
+    to_full = predict(make_model(params, 0.2), [], until_full=True)
+    assert to_100.charge_time_s == pytest.approx(charged(make_model(params, 0.2), 100.0, step_s=0.5), rel=0.02)
+    assert to_full.charge_time_s == pytest.approx(predict(pack(20), [], 100.0).charge_time_s, rel=1e-9), \
+        'the truth is the ideal pack\'s'
+    assert to_100.charge_time_s < to_full.charge_time_s - 600.0
+
+
+def test_cli_charge_says_where_a_gauge_started_and_ended(tmp_path):
+    """--soc is the truth (the soc column), as a node's initial_percentage; the gauge starts where the
+    config puts it (2 points high) and reads 100 % at Full (recalibrated)."""
+    out = tmp_path / 'charge.csv'
+    result = run_cli('--charge', '1.5', '--soc', '0.2', '--config', REALISTIC, '-o', out)
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    assert float(rows[0]['soc']) == pytest.approx(0.2) and float(rows[0]['gauge_soc']) == pytest.approx(0.22)
+    assert rows[-1]['status'] == 'FULL' and float(rows[-1]['gauge_soc']) == 1.0
+    expected_s = predict(gauged(20), [], until_full=True).charge_time_s
+    assert float(rows[-1]['time']) == pytest.approx(expected_s, abs=0.01)
+    assert result.stderr == ('battery_replay: lg_hg2_3s1p charged at 1.5 A from 20 %% to Full in %.0f s (%s); the '
+                             'gauge read 22.0 %% then 100.0 %%\n' % (expected_s, '1 h 35 min'))

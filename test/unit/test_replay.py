@@ -163,7 +163,8 @@ options:
   --charge A            instead of a profile: a CC-CV charge at A amperes from --soc to Full
   --preset PRESET       battery preset (default lg_hg2_3s1p)
   --config CONFIG       YAML file of battery parameters
-  --soc SOC             initial state of charge, 0..1 (default 1; with --charge 0): 0.2 = 20 %
+  --soc SOC             initial state of charge (the truth; a gauge starts where its config puts
+                        it), 0..1 (default 1; with --charge 0): 0.2 = 20 %
   --max-step MAX_STEP   longest model step, s (default 1, at least 0.001)
   -o OUTPUT, --output OUTPUT
                         output CSV file (default: stdout)

@@ -9,13 +9,12 @@ together. The report goes to stdout; a progress bar to a terminal's stderr. A lo
 one line, exit status 1 (2 for a bad argument); no config is written then.
 """
 import argparse
-import math
 import os
 import sys
 import time
 
 from battery_simulator.core.fit import FitError
-from battery_simulator.core.fit.config_writer import config_text, write_config
+from battery_simulator.core.fit.config_writer import WRITTEN_BY, config_text, write_config
 from battery_simulator.core.fit.conventions import prepare, split_at_gaps
 from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
 from battery_simulator.core.fit.log_reader import read_log
@@ -77,7 +76,30 @@ def parse_arguments(argv):
         parser.error('argument --chemistry: %r is not a preset (one of %s)' % (args.chemistry, ', '.join(preset_names())))
     if os.path.isdir(args.output):
         parser.error('argument -o: %s is a directory (give a file name for the config)' % args.output)
+    problem = output_problem(args.output, args.logs)
+    if problem:
+        parser.error('argument -o: %s' % problem)
     return args
+
+
+
+def output_problem(output, logs):
+    """Why ``output`` must not be written (a user's file is never written over), or None: it is one of the
+    logs, or it exists and is not a config battery_fit wrote (its first line says so)."""
+    if not os.path.exists(output):
+        return None
+    for log in logs:
+        if os.path.exists(log) and os.path.samefile(output, log):
+            return '%s is one of the logs (give another file name for the config)' % output
+    try:
+        with open(output, encoding='utf-8', errors='replace') as stream:
+            first_line = stream.readline()
+    except OSError as error:
+        return 'cannot read %s: %s' % (output, error.strerror)
+    if not first_line.startswith(WRITTEN_BY):
+        return ('%s exists and is not a config battery_fit wrote: it is left alone (remove it, or give another '
+                'file name)' % output)
+    return None
 
 
 class ProgressBar:

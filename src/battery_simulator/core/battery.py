@@ -29,6 +29,7 @@ from battery_simulator.core.battery_model import CutOff, Mode, Status
 from battery_simulator.core.names import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
                                           SupplyStatus)
 from battery_simulator.core.pack import make_model
+from battery_simulator.core.settings import MAX_TIME_SCALE
 from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, is_number,
                                                load_power_error)
 from battery_simulator.core.time_base import TimeBase
@@ -473,9 +474,9 @@ class Battery:
     def set_live(self, name, value):
         """Change one live setting, validated like its start-up value; BatteryError (the old value kept)."""
         if name == 'time_scale':
-            if not (is_number(value) and value > 0):
-                raise BatteryError('time_scale = %r is invalid: must be a number > 0; keeping %g'
-                                   % (value, self.time_scale))
+            if not (is_number(value) and 0 < value <= MAX_TIME_SCALE):
+                raise BatteryError('time_scale = %r is invalid: must be a number in (0, %g]; keeping %g'
+                                   % (value, MAX_TIME_SCALE, self.time_scale))
             with self.lock:
                 self._step_to(self._clock())   # the time so far at the old setting
                 self.time_scale = float(value)

@@ -111,3 +111,45 @@ def robot_params(params, name):
     """A robot's battery parameters in a fleet: its own serial number (the diagnostics' hardware_id), so
     that no two robots of a fleet report the same battery."""
     return replace(params, serial_number='%s-%s' % (params.serial_number, name))
+
+
+#: a fleet host's own settings beside the battery and publisher ones, with their rules (both front ends)
+FLEET_RATE_ALLOWED = 'a number in (0, 100] Hz'
+FIRST_ALLOWED = 'a whole number >= 0'
+
+
+def is_fleet_rate(value):
+    """Whether ``value`` is a valid ``fleet_rate`` (battery_fleet/states per second)."""
+    return is_number(value) and 0 < value <= 100
+
+
+def is_first(value):
+    """Whether ``value`` is a valid ``first`` (the number of a counted fleet's first robot)."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def robot_configs(robots, load, loaded=None):
+    """{config path: its BatteryParameters} for every robot's config, each loaded once by ``load(path)``
+    (raising ParameterError); FleetError naming the first robot whose config does not load."""
+    configs = dict(loaded or {})
+    for robot in robots:
+        if robot.config not in configs:
+            try:
+                configs[robot.config] = load(robot.config)
+            except ValueError as error:
+                raise FleetError('robot %s: config = %r is invalid: %s' % (robot.name, robot.config, error)) \
+                    from None
+    return configs
+
+
+def fleet_states(robots):
+    """(names, batteries) of a fleet's states message (battery_fleet/states): every robot whose publisher has a
+    BatteryState to show (none before its first state, nor under a sensor dropout). ``robots``: (name,
+    publisher) pairs, a publisher having ``latest_battery()``."""
+    names, batteries = [], []
+    for name, publisher in robots:
+        battery = publisher.latest_battery()
+        if battery is not None:
+            names.append(name)
+            batteries.append(battery)
+    return names, batteries

@@ -5,7 +5,8 @@ how long until it can take the next one? ``predict`` answers from a copy of a
 BatteryModel, which it never changes: the same model, protection and CC-CV
 charger as the running battery, so the answer agrees with what the battery
 then does. The service ``battery_simulator/predict`` and ``battery_replay.py
---charge`` both use it.
+--charge`` both use it. Its levels are what a robot reads (Part 5): the fuel
+gauge's percentage, which the copy's gauge counts as the running one does.
 
 A plan is a list of Segments. Each runs with the load connected (discharging)
 and adds its current, its power and the motion power of its speed and turn
@@ -76,7 +77,8 @@ class Segment(NamedTuple):
 
 @dataclass(frozen=True)
 class Prediction:
-    """The answer; ``end_*`` at the end of the segments (before any charge)."""
+    """The answer; ``end_*`` at the end of the segments (before any charge); percentages are the fuel
+    gauge's (what the robot reads: the truth with an ideal gauge)."""
 
     feasible: bool             # the segments end without a cut-off
     end_percentage: float
@@ -211,16 +213,21 @@ def check_plan(model, segments, charge_to_percentage=math.nan):
             raise PredictionError(error)
 
 
-def predict(model, segments, charge_to_percentage=math.nan, observe=None):
+def predict(model, segments, charge_to_percentage=math.nan, observe=None, until_full=False):
     """What ``segments`` (then a charge to ``charge_to_percentage``, unless NaN or 0) would do to ``model``.
 
+    Levels are the fuel gauge's (what a robot reads; the truth with an ideal gauge): ``end_percentage``,
+    and the charge ends when the gauge reads ``charge_to_percentage`` or the pack is Full, whichever first.
+    ``until_full``: the charge ends at Full only, whatever the gauge reads (battery_replay.py --charge).
     ``model`` is not changed (the prediction runs on a copy of it). ``observe(time_s, model)``, if
     given, sees the copy at the start and after every step. Raises PredictionError for a bad plan.
     """
     segments = tuple(segments)
-    if charge_to_percentage == 0.0:   # a ROS message's default: no charge, as NaN
+    if until_full:
+        charge_to_percentage = math.inf
+    elif charge_to_percentage == 0.0:   # a ROS message's default: no charge, as NaN
         charge_to_percentage = math.nan
-    check_plan(model, segments, charge_to_percentage)
+    check_plan(model, segments, 100.0 if until_full else charge_to_percentage)
     run = _Run(_copy(model), observe)
     run.discharge_plan(_merged(segments, model.params))
     end = run.model.snapshot()
@@ -229,6 +236,11 @@ def predict(model, segments, charge_to_percentage=math.nan, observe=None):
                       end_voltage_v=end.voltage_v, min_voltage_v=run.min_voltage_v,
                       max_temperature_c=run.max_temperature_c, cut_off_at_s=run.cut_off_at_s,
                       charge_time_s=charge_time_s)
+
+
+def _level(model):
+    """The percentage a robot reads: the fuel gauge's (the truth with an ideal gauge), as end_percentage."""
+    return model.gauge_reading()[0]
 
 
 def _copy(model):
@@ -366,7 +378,8 @@ class _Run:
             self.min_voltage_v = min(self.min_voltage_v, params.cell_cutoff_voltage_v * params.cells_series)
 
     def charge(self, target_percentage):
-        """Seconds from the end of the segments to ``target_percentage`` (inf: never), the charger connected."""
+        """Seconds from the end of the segments until the gauge reads ``target_percentage`` or the pack is
+        Full, whichever first (inf: never), the charger connected. A target of inf: until Full."""
         model, params = self.model, self.model.params
         model.set_extra_load(PLAN_LOAD)
         model.set_mode(Mode.CHARGE)
@@ -384,11 +397,11 @@ class _Run:
                 model.current_a < 0.999 * params.charge_current_a
                 or model.cell_voltage_v > params.cell_charge_voltage_v - CV_ONSET_MARGIN_V)
             step_s = CV_STEP_S if near_cv else self._charge_step()
-            before = 100.0 * model.state_of_charge
+            before = _level(model)
             model.step(step_s)
             self._advance(step_s)
             if self._reached(target_percentage):
-                after = 100.0 * model.state_of_charge
+                after = _level(model)
                 if model.status is Status.FULL or after <= before:   # the taper ended within this step
                     return self.time_s - start_s
                 # the current is held over a step: the level rises linearly within it
@@ -403,7 +416,8 @@ class _Run:
         return min(max(step_s, CV_STEP_S), CURRENT_STEP_S)
 
     def _reached(self, target_percentage):
-        return self.model.status is Status.FULL or 100.0 * self.model.state_of_charge >= target_percentage
+        """The charge ends at the level the robot reads (the gauge's), or at Full (the charger stops)."""
+        return self.model.status is Status.FULL or _level(self.model) >= target_percentage
 
     def _advance(self, step_s):
         self.time_s += step_s

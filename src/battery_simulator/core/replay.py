@@ -15,6 +15,11 @@ temperature, status).
 ``--soc`` (default 0) until the CV taper ends (Full), through the same
 prediction as the service ``battery_simulator/predict``: one row per model
 step, and on stderr how long it took.
+
+``--soc`` is the truth (the output's ``soc``), as a node's initial_percentage:
+a pack's fuel gauge starts where its config puts it (``initial_error``), in
+``gauge_soc``. A charge ends at Full (the truth's end of the taper), whatever
+the gauge reads then; stderr names the gauge's start and end when they differ.
 """
 import argparse
 import contextlib
@@ -123,7 +128,7 @@ def charge(params, charge_current_a, state_of_charge=0.0):
         raise ParameterError('--charge %g: %s' % (charge_current_a, error)) from None
     rows = []
     model = make_model(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
-    result = predict(model, (), charge_to_percentage=100.0, observe=lambda time_s, m: rows.append(_row(time_s, m)))
+    result = predict(model, (), observe=lambda time_s, m: rows.append(_row(time_s, m)), until_full=True)
     return rows, result.charge_time_s
 
 
@@ -173,7 +178,8 @@ def parse_arguments(argv):
     source.add_argument('--preset', help='battery preset (default %s)' % DEFAULT_PRESET)
     source.add_argument('--config', help='YAML file of battery parameters')
     parser.add_argument('--soc', type=_fraction,
-                        help='initial state of charge, 0..1 (default 1; with --charge 0): 0.2 = 20 %%')
+                        help='initial state of charge (the truth; a gauge starts where its config puts it), '
+                             '0..1 (default 1; with --charge 0): 0.2 = 20 %%')
     parser.add_argument('--max-step', type=_step, default=1.0,
                         help='longest model step, s (default 1, at least %g)' % MIN_STEP_S)
     parser.add_argument('-o', '--output', help='output CSV file (default: stdout)')
@@ -218,8 +224,17 @@ def _run(args):
         except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     if args.charge is not None:
-        sys.stderr.write('battery_replay: %s charged at %g A from %g %% to Full in %.0f s (%s)\n' % (
-            params.name, args.charge, 100.0 * args.soc, charge_time_s, _hours_minutes(charge_time_s)))
+        sys.stderr.write('battery_replay: %s charged at %g A from %g %% to Full in %.0f s (%s)%s\n' % (
+            params.name, args.charge, 100.0 * args.soc, charge_time_s, _hours_minutes(charge_time_s),
+            _gauge_view(rows)))
+
+
+def _gauge_view(rows):
+    """'; the gauge read A % then B %' when a charge's rows show a gauge that is not the truth, else ''."""
+    soc, gauge = OUTPUT_COLUMNS.index('soc'), OUTPUT_COLUMNS.index('gauge_soc')
+    if all(row[soc] == row[gauge] for row in rows):
+        return ''
+    return '; the gauge read %.1f %% then %.1f %%' % (100.0 * float(rows[0][gauge]), 100.0 * float(rows[-1][gauge]))
 
 
 def _hours_minutes(seconds):

@@ -40,12 +40,13 @@ from battery_simulator.ros1.log import RobotLog
 from battery_simulator.ros1.saved_state import FleetStore
 from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate
 from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
-from battery_simulator.core.fleet import FleetError, host_share, robot_params, robot_specs
-from battery_simulator.core.parameters import ParameterError, load_yaml
+from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, host_share,
+                                          is_first, is_fleet_rate, robot_configs, robot_params, robot_specs)
+from battery_simulator.core.parameters import load_yaml
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, checked_param,
                                            ending_the_node_on_error,
-                                           exit_on_startup_error, init_node, is_number, signals_held,
+                                           exit_on_startup_error, init_node, signals_held,
                                            wait_for_rosout)
 
 #: every host's robots, on one topic (in the hosts' namespace): the whole fleet in one subscription
@@ -65,8 +66,7 @@ def read_settings():
             first, count = host_share(rospy.get_param('~fleet_size'), rospy.get_param('~hosts', 1),
                                       rospy.get_param('~host_index', 0))
         else:
-            first = checked_param('~first', 0, lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
-                                  'a whole number >= 0')
+            first = checked_param('~first', 0, is_first, FIRST_ALLOWED)
             count = rospy.get_param('~robots', 1)
         robots = robot_specs(
             count,
@@ -76,17 +76,12 @@ def read_settings():
             charging=bool(server['charging']))
     except FleetError as error:
         raise StartupError('%s: %s' % (rospy.get_name(), error)) from None
-    configs = {server['params_path']: server['params']}
-    for robot in robots:
-        if robot.config not in configs:
-            try:
-                configs[robot.config] = load_yaml(robot.config)
-            except ParameterError as error:
-                raise StartupError('robot %s: config = %r is invalid: %s' % (robot.name, robot.config, error)) \
-                    from None
+    try:
+        configs = robot_configs(robots, load_yaml, {server['params_path']: server['params']})
+    except FleetError as error:
+        raise StartupError(str(error)) from None
     return dict(robots=robots, configs=configs, server=server, publisher=publisher,
-                fleet_rate=checked_param('~fleet_rate', 1.0, lambda v: is_number(v) and 0 < v <= 100,
-                                         'a number in (0, 100] Hz'))
+                fleet_rate=checked_param('~fleet_rate', 1.0, is_fleet_rate, FLEET_RATE_ALLOWED))
 
 
 def raise_open_file_limit(robots):
@@ -150,12 +145,8 @@ class FleetHost:
             rate = rospy.Rate(self._fleet_rate, reset=True)
             while not rospy.is_shutdown():
                 if self._states_pub.get_num_connections() > 0:
-                    msg = BatteryFleetState()
-                    for name, publisher in zip(self.names, self.publishers):
-                        battery = publisher.latest_battery()
-                        if battery is not None:
-                            msg.names.append(name)
-                            msg.states.append(battery)
+                    names, batteries = fleet_states(zip(self.names, self.publishers))
+                    msg = BatteryFleetState(names=names, states=batteries)
                     msg.header.stamp = rospy.Time.now()
                     self._states_pub.publish(msg)
                 try:

@@ -21,7 +21,6 @@ from battery_simulator.action import BatterySim
 from battery_simulator.core import topics
 from battery_simulator.core.battery import BatteryError, Goal, GoalEnd, parse_mode
 from battery_simulator.core.battery_model import Mode
-from battery_simulator.core.settings import SettingError, check_setting, setting
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros2.messages import SimState
 from battery_simulator.ros2.qos import LATCHED_QOS
@@ -90,11 +89,9 @@ class BatterySimServer:
         done = []
         try:
             for name, value in changes:
-                if name == 'time_scale':
-                    check_setting(setting('time_scale'), value)
                 self.battery.set_live(name, value)
                 done.append(name)
-        except (BatteryError, SettingError) as error:
+        except BatteryError as error:
             for name in reversed(done):
                 self.battery.set_live(name, before[name])
             return str(error)

@@ -33,14 +33,15 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from battery_simulator.core.battery_log import resume_battery
-from battery_simulator.core.fleet import FleetError, robot_params, robot_specs
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, is_first,
+                                          is_fleet_rate, robot_configs, robot_params, robot_specs)
+from battery_simulator.core.parameters import load_yaml
 from battery_simulator.core.state_file import FleetStateFile
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2 import services
 from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
-                                                 declare_mode, diagnostics_publisher, load_config, make_battery,
+                                                 declare_mode, diagnostics_publisher, make_battery,
                                                  read_publisher_settings, steady_clock)
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, ending_quietly,
@@ -72,13 +73,12 @@ class FleetSettings:
         self.charging = declare_mode(node)
         self.publisher = read_publisher_settings(node)
         staggered = not _given(node, 'initial_percentage')
-        if not (is_number(declared['fleet_rate']) and 0 < declared['fleet_rate'] <= 100):
-            raise StartupError('parameter %s = %r is invalid: must be a number in (0, 100] Hz'
-                               % (parameter_name(node, 'fleet_rate'), declared['fleet_rate']))
+        for name, valid, allowed in (('fleet_rate', is_fleet_rate, FLEET_RATE_ALLOWED),
+                                     ('first', is_first, FIRST_ALLOWED)):
+            if not valid(declared[name]):
+                raise StartupError('parameter %s = %r is invalid: must be %s'
+                                   % (parameter_name(node, name), declared[name], allowed))
         first = declared['first']
-        if not (isinstance(first, int) and not isinstance(first, bool) and first >= 0):
-            raise StartupError('parameter %s = %r is invalid: must be a whole number >= 0'
-                               % (parameter_name(node, 'first'), first))
         robots = declared['robots']
         if isinstance(robots, str):
             try:
@@ -96,13 +96,10 @@ class FleetSettings:
             raise StartupError('%s: %s' % (node.get_fully_qualified_name(), str(error).replace('~', ''))) from None
         self.fleet_rate = declared['fleet_rate']
         check_state_path(node, self.battery['state_file'], fleet=True)
-        self.configs = {}
-        for robot in self.robots:
-            if robot.config not in self.configs:
-                try:
-                    self.configs[robot.config] = load_config(node, robot.config)
-                except StartupError as error:
-                    raise StartupError('robot %s: %s' % (robot.name, error)) from None
+        try:
+            self.configs = robot_configs(self.robots, load_yaml)
+        except FleetError as error:
+            raise StartupError(str(error)) from None
 
 
 def _given(node, name):
@@ -174,13 +171,9 @@ class FleetHost:
     def _publish_states(self):
         if self._states_pub.get_subscription_count() == 0:
             return
-        msg = BatteryFleetState()
+        names, batteries = fleet_states((robot.name, robot.status) for robot in self.robots)
+        msg = BatteryFleetState(names=names, states=batteries)
         msg.header.stamp = self._node.get_clock().now().to_msg()
-        for robot in self.robots:
-            battery = robot.status.latest_battery()
-            if battery is not None:
-                msg.names.append(robot.name)
-                msg.states.append(battery)
         self._states_pub.publish(msg)
 
     def finish(self):

@@ -17,11 +17,15 @@ ORDER = ('name', 'source', 'cells_series', 'cells_parallel', 'cell_capacity_ah',
          'cell_heat_transfer_w_per_k', 'cell_max_discharge_current_a', 'cell_max_charge_current_a')
 
 
+#: the first line of every config battery_fit writes (only such a file may be written over)
+WRITTEN_BY = '# Battery config written by battery_fit'
+
+
 def config_text(result, command=''):
     """The YAML text of ``result`` (a FitResult); FitError if it would not load."""
     params = result.params
     base = result.params   # every written key's value comes from the fitted parameters
-    lines = ['# Battery config written by battery_fit%s' % (': ' + command if command else ''),
+    lines = [WRITTEN_BY + '%s' % (': ' + command if command else ''),
              '# from: %s' % ', '.join(log.name for log in result.logs),
              '# Values the logs could not identify are the %s preset\'s (see the report).' % result.chemistry,
              'preset: %s' % result.chemistry]

@@ -24,11 +24,21 @@ from battery_simulator.core.parameters import MAX_CELLS, ParameterError
 DEFAULT_HOLDOUT = 0.25
 #: a rest: |current| below this fraction of the log's largest (or REST_A) for at least REST_S
 REST_FRACTION, REST_A, REST_S = 0.02, 0.05, 120.0
-#: the OCV curve is learned when the preset's shape leaves more than this per cell (V) and the logs
-#: cover at least LEARN_MIN_SOC_SPAN of the charge range, and kept when it lowers the RMSE by LEARN_GAIN
-LEARN_ABOVE_V, LEARN_MIN_SOC_SPAN, LEARN_GAIN = 0.006, 0.05, 0.8
+#: the OCV curve is learned where the logs cover at least LEARN_MIN_SOC_SPAN of the charge range and the
+#: learned curve predicts each of CV_FOLDS blocks of the fitted part, held out in turn, better than the
+#: preset's shape: its cross-validated RMSE below LEARN_GAIN times the shape's
+LEARN_MIN_SOC_SPAN, LEARN_GAIN, CV_FOLDS = 0.05, 0.9, 5
+#: the smoothness weights tried (the learned curvature's departure from the preset's, per knot, relative to
+#: the data's weight): the one that cross-validates best is kept
+SMOOTHNESS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0)
 #: knots of a learned OCV curve: one per this much SOC, between these counts
 LEARN_KNOT_SOC, LEARN_MIN_KNOTS, LEARN_MAX_KNOTS = 0.02, 4, 40
+#: a charge: charging current for at least this long, s
+CHARGE_MIN_S = 120.0
+#: the logged percentage gives the capacity beside a learned OCV curve when it moves by this much
+PERCENTAGE_SPAN = 0.1
+#: the series count is clear when the runner-up's fit is this many times worse than the best's
+SERIES_CLEAR = 1.5
 #: samples per log the series-count search looks at
 SEARCH_SAMPLES = 2500
 #: bounds of the searched time constants, s
@@ -66,7 +76,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     # -- series count
     progress(0.02, 'series count')
     if cells_series is None:
-        cells_series, why = _series_count(logs, masks, chemistry, progress)
+        cells_series, why = _series_count(logs, masks, chemistry, progress, warnings)
     else:
         why = 'given (--cells-series)'
     fitted['cells_series'] = Fitted(cells_series, why)
@@ -82,7 +92,21 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest,
                                  electrical)
     progress(0.75, 'OCV curve')
-    curve = _learn_curve(logs, masks, chemistry, cells_series, cells_parallel, temperatures, electrical)
+    curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest)
+    for rounds in range(2):
+        if curve is None:
+            break
+        # its resistances and time constants, the heat they make, the temperature, and the curve again at it
+        coefficients = dict(electrical.coefficients)
+        coefficients.update((name, (value, curve['sigmas'].get(name))) for name, value in curve['resistances'].items())
+        electrical = replace(electrical, tau1_s=curve['tau1_s'], tau_fast_s=curve['tau_fast_s'], soc0=curve['soc0'],
+                             coefficients=coefficients, capacity_ah=curve['capacity_ah'])
+        heat_params = _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept)
+        if rounds == 0 and any(log.temperature_c is not None for log in logs):
+            temperatures = [_model_temperature(log, chemistry, cells_parallel, electrical, heat_params) for log in logs]
+            curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest) or curve
+        else:
+            break
     changes = _electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest,
                                  fitted, kept, warnings)
     progress(0.9, 'loads and charger')
@@ -139,7 +163,7 @@ def _preset_temperature(log, chemistry):
     return np.full(len(log.time_s), chemistry.params.ambient_temperature_c)
 
 
-def _series_count(logs, masks, chemistry, progress):
+def _series_count(logs, masks, chemistry, progress, warnings):
     p = chemistry.params
     high = max(float(np.max(log.voltage_v)) for log in logs)
     low = min(float(np.min(log.voltage_v)) for log in logs)
@@ -170,6 +194,11 @@ def _series_count(logs, masks, chemistry, progress):
                        % (low, high, p.name))
     scores.sort()
     best = scores[0][1]
+    if len(scores) > 1 and scores[1][0] < SERIES_CLEAR * scores[0][0]:
+        warnings.append('cells in series: %d fits the %s shape best, but %d nearly as well (the pack voltage '
+                        '%.4g-%.4g V puts every cell within 2.5-4.35 V for %s cells); a pack of other cells can '
+                        'be either: --cells-series settles it' % (best, p.name, scores[1][1], low, high,
+                                                                 ', '.join(str(n) for n in candidates)))
     return best, 'the voltage range %.2f-%.2f V and the best fit of the OCV shape among %s cells' % (
         low, high, ', '.join(str(n) for n in candidates))
 
@@ -319,11 +348,10 @@ def _capacity_guess(logs, arrays, chemistry, soc0):
     return max(chemistry.params.cell_capacity_ah, 1.2 * throughput)
 
 
-def _learn_curve(logs, masks, chemistry, cells_series, cells_parallel, temperatures, electrical):
-    """The OCV at knots over the covered SOC range, when the preset's shape does not fit (else None).
-    Returns (knots, values, rmse) with the resistances refitted beside it."""
-    if electrical.rmse_v <= LEARN_ABOVE_V:
-        return None
+def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest):
+    """The OCV at knots over the covered SOC range, when the logs cover enough of it and the learned curve
+    predicts blocks of the fitted part held out in turn better than the preset's shape (else None).
+    Returns {knots, values, rmse_v, resistances, sigmas, gap, smoothness, cv: (preset, curve) RMSEs, taus}."""
     socs = np.concatenate([piece[1][mask] for piece, mask in zip(electrical.pieces, masks)])
     low, high = float(np.min(socs)), float(np.max(socs))
     if high - low < LEARN_MIN_SOC_SPAN:
@@ -331,31 +359,154 @@ def _learn_curve(logs, masks, chemistry, cells_series, cells_parallel, temperatu
     count = int(np.clip(round((high - low) / LEARN_KNOT_SOC), LEARN_MIN_KNOTS, LEARN_MAX_KNOTS)) + 1
     knots = np.linspace(low, high, count)
     shape = np.interp(knots, chemistry.soc_points, chemistry.ocv)
-    rows, targets = [], []
-    for (a, soc, _, x0, x1, xf), mask in zip(electrical.pieces, masks):
-        gap = np.interp(soc, chemistry.soc_points, chemistry.gap) * a.weight
-        rows.append(np.column_stack([hat_basis(soc[mask], knots), x0[mask], x1[mask], xf[mask]]))
-        targets.append(a.cell_voltage[mask] - gap[mask])
-    design, target = np.vstack(rows), np.concatenate(targets)
-    # a smooth curve: its curvature held near the preset's (weighted to the data's count)
-    weight = 0.05 * math.sqrt(len(target) / count)
+    folds, voltage, gaps, preset_ocv, currents, hats = [], [], [], [], [], []
+    for (a, soc, ocv, x0, x1, xf), mask in zip(electrical.pieces, masks):
+        n = int(mask.sum())
+        folds.append((np.arange(n) * CV_FOLDS) // n)   # contiguous blocks of each log's fitted part
+        voltage.append(a.cell_voltage[mask])
+        gaps.append((np.interp(soc, chemistry.soc_points, chemistry.gap) * a.weight)[mask])
+        preset_ocv.append(ocv[mask])
+        currents.append(np.column_stack([x0[mask], x1[mask], xf[mask]]))
+        hats.append(hat_basis(soc[mask], knots))
+    fold, voltage, gaps = np.concatenate(folds), np.concatenate(voltage), np.concatenate(gaps)
+    resistive = np.vstack(currents)
+    preset_design = np.column_stack(([np.ones(len(voltage))] if has_rest else []) + [resistive])
+    preset_cv = _cross_validated(preset_design, voltage - np.concatenate(preset_ocv), fold, None, None)
+    design = np.hstack([np.vstack(hats), resistive])
+    scale = math.sqrt(len(voltage) / count)
     smooth = np.zeros((count - 2, design.shape[1]))
     for j in range(count - 2):
-        smooth[j, j:j + 3] = (weight, -2.0 * weight, weight)
-    smooth_target = weight * (shape[:-2] - 2.0 * shape[1:-1] + shape[2:])
-    names = ['knot%d' % j for j in range(count)] + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
-    values, sigmas, _ = _non_negative_lstsq(np.vstack([design, smooth]), np.concatenate([target, smooth_target]),
-                                            ['offset'] * count + names[count:])
-    solution = np.linalg.lstsq(np.vstack([design, smooth]), np.concatenate([target, smooth_target]), rcond=None)[0]
-    curve = solution[:count]
-    resistances = [max(values[name], 0.0) for name in names[count:]]
-    residual = target - design @ np.concatenate([curve, resistances])
-    rmse = float(np.sqrt(np.mean(residual ** 2)))
-    if rmse > LEARN_GAIN * electrical.rmse_v:
+        smooth[j, j:j + 3] = (1.0, -2.0, 1.0)
+    smooth_target = shape[:-2] - 2.0 * shape[1:-1] + shape[2:]
+    best = None
+    has_gap = bool(np.any(chemistry.gap))
+    for gap in (True, False) if has_gap else (False,):
+        target = voltage - gaps if gap else voltage
+        for weight in SMOOTHNESS:
+            error = _cross_validated(design, target, fold, weight * scale * smooth, weight * scale * smooth_target)
+            if best is None or error < best[0]:
+                best = (error, gap, weight)
+    curve_cv, gap, weight = best
+    if not curve_cv < LEARN_GAIN * preset_cv:
         return None
-    return {'knots': knots, 'values': _increasing(curve), 'rmse_v': rmse,
+    # the time constants (and the later logs' starting SOC) again, with the curve beside the resistances
+    from scipy.optimize import least_squares
+    p = chemistry.params
+    scales = [chemistry.arrhenius(temperature) for temperature in temperatures]
+    arrays = [piece[0] for piece in electrical.pieces]
+
+    def solve(z):
+        cell_capacity = math.exp(z[2]) / electrical.cells_parallel
+        soc0 = list(z[3:])
+        rows, targets, pieces = [], [], []
+        socs = []
+        for k, a in enumerate(arrays):
+            soc = state_of_charge(a, cell_capacity, soc0[k], p.coulombic_efficiency)
+            socs.append(soc[masks[k]])
+        grid = np.linspace(min(float(np.min(s)) for s in socs), max(float(np.max(s)) for s in socs), count)
+        if grid[-1] - grid[0] < 1e-6:
+            grid = knots
+        grid_shape = np.interp(grid, chemistry.soc_points, chemistry.ocv)
+        for k, a in enumerate(arrays):
+            m = masks[k]
+            soc = state_of_charge(a, cell_capacity, soc0[k], p.coulombic_efficiency)
+            x0, x1, xf = regressors(a, soc, scales[k], chemistry, math.exp(z[0]), math.exp(z[1]),
+                                    electrical.use_tables)
+            pieces.append((a, soc, x0, x1, xf))
+            rows.append(np.column_stack([hat_basis(soc[m], grid), x0[m], x1[m], xf[m]]))
+            shift = np.interp(soc, chemistry.soc_points, chemistry.gap) * a.weight if gap else 0.0
+            targets.append((a.cell_voltage - shift)[m])
+        smooth_rows = weight * scale * smooth
+        smooth_values = weight * scale * (grid_shape[:-2] - 2.0 * grid_shape[1:-1] + grid_shape[2:])
+        return grid, np.vstack(rows + [smooth_rows]), np.concatenate(targets + [smooth_values]), len(
+            np.concatenate(targets))
+
+    def residuals(z):
+        _, matrix, target, n = solve(z)
+        values = np.linalg.lstsq(matrix, target, rcond=None)[0]
+        return (target - matrix @ values)[:n]
+
+    # the capacity and every log's starting SOC searched again: the curve's smoothness (its bends held near the
+    # preset's) and the logs' overlap place them
+    # (or both from the logged percentage, where it moves: a shape-free reading of the charge)
+    gauge = _percentage_capacity(logs, masks)
+    capacity, soc0 = (math.log(gauge[0]), gauge[1]) if gauge else (math.log(electrical.capacity_ah), electrical.soc0)
+    z0 = [math.log(electrical.tau1_s), math.log(electrical.tau_fast_s), capacity] + list(soc0)
+    spread = math.log(1.02 if gauge else 3.0)
+    low_bounds = [math.log(TAU1_BOUNDS[0]), math.log(TAU_FAST_BOUNDS[0]), capacity - spread] + [
+        max(0.0, s - 0.02) if gauge else 0.0 for s in soc0]
+    high_bounds = [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1]), capacity + spread] + [
+        min(1.0, s + 0.02) if gauge else 1.0 for s in soc0]
+    z0 = np.clip(z0, np.asarray(low_bounds) + 1e-9, np.asarray(high_bounds) - 1e-9)
+    solution = least_squares(residuals, z0, bounds=(low_bounds, high_bounds), x_scale='jac', diff_step=1e-4,
+                             max_nfev=60)
+    for weight in [w for w in SMOOTHNESS if w >= weight]:   # the smoothest needed for an increasing curve
+        grid, matrix, target, n = solve(solution.x)
+        solved = np.linalg.lstsq(matrix, target, rcond=None)[0]
+        if np.all(np.diff(solved[:count]) > 0):
+            break
+    else:
+        return None
+    names = ['knot%d' % j for j in range(count)] + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
+    values, sigmas, residual = _non_negative_lstsq(matrix, target, ['offset'] * count + names[count:])
+    resistances = [max(values[name], 0.0) for name in names[count:]]
+    curve = solved[:count] if all(solved[count:] >= 0) else None
+    if curve is None:   # the curve beside the non-negative resistances
+        fixed = matrix[:, count:] @ np.asarray(resistances)
+        curve = np.linalg.lstsq(matrix[:, :count], target - fixed, rcond=None)[0]
+    fit_residual = (target - matrix @ np.concatenate([curve, resistances]))[:n]
+    return {'knots': grid, 'values': _increasing(curve), 'rmse_v': float(np.sqrt(np.mean(fit_residual ** 2))),
             'resistances': dict(zip(names[count:], resistances)),
-            'sigmas': {name: sigmas.get(name) for name in names[count:]}}
+            'sigmas': {name: sigmas.get(name) for name in names[count:]}, 'gap': gap, 'smoothness': weight,
+            'cv': (preset_cv, curve_cv), 'tau1_s': math.exp(solution.x[0]), 'tau_fast_s': math.exp(solution.x[1]),
+            'soc0': [float(v) for v in solution.x[3:]], 'capacity_ah': math.exp(solution.x[2])}
+
+
+def _percentage_capacity(logs, masks):
+    """(pack capacity, starting SOC per log) from the logged percentage against the counted charge, where
+    every log has it and it moves by PERCENTAGE_SPAN in all; else None."""
+    rows, targets = [], []
+    for index, (log, mask) in enumerate(zip(logs, masks)):
+        if log.percentage is None:
+            return None
+        charge = np.concatenate([[0.0], np.cumsum(log.current_a[1:] * np.diff(log.time_s))]) / 3600.0
+        use = mask & np.isfinite(log.percentage)
+        if use.sum() < 10:
+            return None
+        row = np.zeros((use.sum(), len(logs) + 1))
+        row[:, index] = 1.0
+        row[:, -1] = charge[use]
+        rows.append(row)
+        targets.append(log.percentage[use])
+    target = np.concatenate(targets)
+    if np.ptp(target) < PERCENTAGE_SPAN:
+        return None
+    values = np.linalg.lstsq(np.vstack(rows), target, rcond=None)[0]
+    if not values[-1] > 0 or not all(0.0 <= v <= 1.0 for v in values[:-1]):
+        return None
+    return 1.0 / values[-1], [float(v) for v in values[:-1]]
+
+
+def _cross_validated(design, target, fold, smooth, smooth_target):
+    """The RMSE of least squares predicting each fold from the others (a smoothness penalty beside)."""
+    folds = int(fold.max()) + 1
+    grams, moments, squares = [], [], []
+    for f in range(folds):
+        rows = fold == f
+        grams.append(design[rows].T @ design[rows])
+        moments.append(design[rows].T @ target[rows])
+        squares.append(float(target[rows] @ target[rows]))
+    gram, moment = sum(grams), sum(moments)
+    if smooth is not None:
+        gram_smooth, moment_smooth = smooth.T @ smooth, smooth.T @ smooth_target
+    total = 0.0
+    for f in range(folds):
+        a, b = gram - grams[f], moment - moments[f]
+        if smooth is not None:
+            a, b = a + gram_smooth, b + moment_smooth
+        values = np.linalg.lstsq(a, b, rcond=None)[0]
+        total += max(squares[f] - 2.0 * values @ moments[f] + values @ grams[f] @ values, 0.0)
+    return math.sqrt(total / len(target))
 
 
 def _increasing(values, step=1e-4):
@@ -409,21 +560,29 @@ def _electrical_values(electrical, curve, chemistry, cells_series, cells_paralle
     else:
         knots, values = curve['knots'], curve['values']
         below, above = soc < knots[0], soc > knots[-1]
-        volts = np.interp(soc, soc, chemistry.ocv)
-        volts[below] = chemistry.ocv[below] + values[0] - np.interp(knots[0], soc, chemistry.ocv)
-        volts[above] = chemistry.ocv[above] + values[-1] - np.interp(knots[-1], soc, chemistry.ocv)
+        # outside the covered range the preset's shape, its departure at the ends fading to none at 0 and 1
+        start = values[0] - np.interp(knots[0], soc, chemistry.ocv)
+        end = values[-1] - np.interp(knots[-1], soc, chemistry.ocv)
+        volts_below = chemistry.ocv[below] + start * soc[below] / knots[0]
+        volts_above = chemistry.ocv[above] + end * (1.0 - soc[above]) / max(1.0 - knots[-1], 1e-9)
         soc = np.concatenate([soc[below], knots, soc[above]])
-        volts = np.concatenate([volts[below], values, volts[above]])
+        volts = np.concatenate([volts_below, values, volts_above])
+        preset_cv, curve_cv = curve['cv']
         fitted['ocv_voltage_v'] = Fitted(
             'learned at %d points over SOC %.2f-%.2f' % (len(knots), knots[0], knots[-1]),
-            'the logs\' voltages: the preset\'s shape left %.1f mV per cell, the learned curve %.1f mV; outside '
-            'the covered range the preset\'s shape, joined' % (1000 * electrical.rmse_v, 1000 * curve['rmse_v']))
-        warnings.append('the OCV curve is learned over SOC %.2f-%.2f only: outside it the %s shape is a guess'
-                        % (knots[0], knots[-1], p.name))
+            'the logs\' voltages: blocks of the fitted part held out in turn were predicted to %.1f mV per cell '
+            'by the learned curve (smoothness %g%s), %.1f mV by the preset\'s shape; fitted %.1f mV; outside '
+            'the covered range the preset\'s shape, joined' % (
+                1000 * curve_cv, curve['smoothness'], ', the preset\'s hysteresis' if curve['gap'] else
+                ', no hysteresis', 1000 * preset_cv, 1000 * curve['rmse_v']))
+        warnings.append('the OCV curve is learned over SOC %.2f-%.2f only: outside it the %s shape is a guess, '
+                        'and so is the capacity (the SOC scale rests on that shape)' % (knots[0], knots[-1], p.name))
     volts = _increasing(volts)
     changes['ocv_soc'] = tuple(float('%.5g' % s) for s in soc)
     changes['ocv_voltage_v'] = tuple(float('%.5f' % v) for v in volts)
-    if p.ocv_charge_voltage_v:
+    if curve is not None and not curve['gap']:
+        changes['ocv_charge_voltage_v'] = ()   # the learned curve fits best without the preset's hysteresis
+    elif p.ocv_charge_voltage_v:
         gap = np.interp(soc, chemistry.soc_points, chemistry.gap)
         changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in _increasing(np.maximum(volts + gap, volts)))
     # the charge voltage and the cut-off within the table
@@ -500,6 +659,8 @@ def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, ch
     masks = [np.ones(len(log.time_s), dtype=bool) for log in logs]
     # a charge: more than C/40 (a sensor's noise at rest is not one)
     threshold = max(0.05, changes['cell_capacity_ah'] * cells_parallel / 40.0)
+    # a charge lasts (a vehicle's regeneration, pulses of charge current while it drives, is not one)
+    masks = [_lasting(log.time_s, log.current_a > threshold, CHARGE_MIN_S) for log in logs]
     charging = [log.current_a[mask & (log.current_a > threshold)] for log, mask in zip(logs, masks)]
     currents = np.concatenate(charging)
     result = {}
@@ -533,6 +694,16 @@ def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, ch
     if result['charge_current_a'] > max_charge:
         result['cell_max_charge_current_a'] = float('%.4g' % (1.2 * result['charge_current_a'] / cells_parallel))
     return result
+
+
+def _lasting(time_s, flags, seconds):
+    """``flags`` where they hold for at least ``seconds`` on end."""
+    out = np.zeros(len(flags), dtype=bool)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2]):
+        if time_s[stop - 1] - time_s[start] >= seconds:
+            out[start:stop] = True
+    return out
 
 
 def _limits(logs, cells_series, cells_parallel, chemistry_params, changes, fitted):

@@ -1,0 +1,91 @@
+"""battery_fit on packs that are not LG HG2 (issue 36's vehicle case, contract Part 8): the OCV curve's shape
+learned over the charge range the logs cover. A 96S1P vehicle of NMC811 cells driven at 10 Hz (two drives with
+overlapping SOC ranges: the first's held-out end lies within the range the second covers) and a 24S4P robot of a
+made-up chemistry; the held-out voltage RMSE within the covered range <= 15 mV per cell."""
+import numpy as np
+import pytest
+
+import fit_logs
+from battery_simulator.cli import fit as fit_cli
+from battery_simulator.core.fit.conventions import prepare
+from battery_simulator.core.fit.fitting import _lasting, fit
+from battery_simulator.core.fit.log_reader import read_log
+from battery_simulator.core.fit.report import figures
+from battery_simulator.core.parameters import load_yaml, preset
+
+HG2 = preset('lg_hg2_cell')
+LIMIT_MV = 15.0
+
+
+@pytest.fixture(scope='module')
+def vehicle(tmp_path_factory):
+    return fit_logs.vehicle_logs(tmp_path_factory.mktemp('vehicle'))
+
+
+@pytest.fixture(scope='module')
+def robot(tmp_path_factory):
+    return fit_logs.foreign_robot_logs(tmp_path_factory.mktemp('robot'))
+
+
+def _fit(logs, cells_series=None):
+    """(FitResult, held-out RMSE in mV per cell within the SOC range the fitted parts cover)."""
+    result = fit([prepare(read_log(path, None, None)) for path, _ in logs], HG2, 'lg_hg2_cell',
+                 cells_series=cells_series)
+    numbers = figures(result)
+    covered = np.concatenate([soc[mask] for (_, soc), mask in zip(logs, result.fit_masks)])
+    errors = []
+    for (_, soc), mask, model, log in zip(logs, result.fit_masks, numbers.model_voltage, result.logs):
+        within = ~mask & (soc >= covered.min()) & (soc <= covered.max())
+        errors.append((model - log.voltage_v)[within])
+    errors = np.concatenate(errors)
+    assert len(errors) > 100, 'the logs should hold out a part within the covered range (%d samples)' % len(errors)
+    return result, 1000.0 * float(np.sqrt(np.mean(errors ** 2))) / result.params.cells_series
+
+
+def test_the_vehicle_logs_are_not_lg_hg2():
+    truth = fit_logs.vehicle_params()
+    hg2 = np.interp(truth.ocv_soc, HG2.ocv_soc, HG2.ocv_voltage_v)
+    departure = np.asarray(truth.ocv_voltage_v) - hg2
+    assert np.ptp(departure[(np.asarray(truth.ocv_soc) >= 0.3) & (np.asarray(truth.ocv_soc) <= 0.9)]) > 0.02, \
+        'the NMC811 curve should bend otherwise than LG HG2 over 30-90 %% SOC: %s' % departure
+
+
+def test_vehicle_curve_learned_without_cells_series(vehicle):
+    """The worst case: no --cells-series, the default hold-out (the last 25 % of each log)."""
+    truth = fit_logs.vehicle_params()
+    result, held_mv = _fit(vehicle)
+    assert 'learned' in str(result.fitted['ocv_voltage_v'].value), 'the OCV curve should be learned: %s' % (
+        result.fitted['ocv_voltage_v'],)
+    assert held_mv <= LIMIT_MV, 'held out within the covered range %.1f mV per cell (at most %g)' % (held_mv, LIMIT_MV)
+    assert result.params.design_capacity_ah == pytest.approx(truth.design_capacity_ah, rel=0.05), \
+        'pack capacity %.2f Ah, truth %.2f Ah' % (result.params.design_capacity_ah, truth.design_capacity_ah)
+    n = result.params.cells_series
+    pack_r0, true_r0 = result.params.r0_ohm * n / result.params.cells_parallel, truth.r0_ohm * truth.cells_series
+    assert pack_r0 == pytest.approx(true_r0, rel=0.15), 'pack R0 %.4f ohm, truth %.4f ohm' % (pack_r0, true_r0)
+    assert 'charge_current_a' in result.kept, 'regeneration is not a charge: %s' % result.fitted.get('charge_current_a')
+
+
+def test_made_up_chemistry_24s4p(robot):
+    truth = fit_logs.foreign_robot_params()
+    result, held_mv = _fit(robot, cells_series=24)
+    assert 'learned' in str(result.fitted['ocv_voltage_v'].value), 'the OCV curve should be learned'
+    assert held_mv <= LIMIT_MV, 'held out within the covered range %.1f mV per cell (at most %g)' % (held_mv, LIMIT_MV)
+    assert result.params.design_capacity_ah == pytest.approx(truth.design_capacity_ah, rel=0.02), \
+        'pack capacity %.2f Ah, truth %.2f Ah' % (result.params.design_capacity_ah, truth.design_capacity_ah)
+
+
+def test_an_ambiguous_series_count_is_said(robot, tmp_path, capsys):
+    """A pack of other cells: several counts fit the preset's shape about as well; the report says so."""
+    output = str(tmp_path / 'robot.yaml')
+    fit_cli.main([path for path, _ in robot] + ['-o', output])
+    report = capsys.readouterr().out
+    assert '--cells-series settles it' in report, 'the report should say the count is ambiguous:\n' + report
+    assert load_yaml(output).cells_series in range(20, 31), 'a count within the plausible range'
+
+
+def test_a_charge_lasts():
+    t = np.arange(0.0, 400.0)
+    flags = (t < 10) | ((t >= 100) & (t < 300))   # a 10 s pulse (regeneration) and a 200 s charge
+    lasting = _lasting(t, flags, 120.0)
+    assert not lasting[:10].any() and lasting[100:300].all() and lasting.sum() == 200, \
+        'only the 200 s run is a charge: %d samples' % lasting.sum()
