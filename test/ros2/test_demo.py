@@ -38,7 +38,9 @@ def test_the_demo_patrols_docks_when_low_charges_and_patrols_again():
 
 def test_a_bad_demo_parameter_ends_it_with_one_line():
     demo = NodeProcess('battery_demo', '-p', 'gauge:=perfect')
-    assert demo.wait(30.0) not in (None, 0), demo.output()
+    status = demo.wait(30.0)
+    demo.stop()   # (if it is still running)
+    assert status not in (None, 0), demo.output()
     lines = [line for line in demo.output().splitlines() if 'gauge' in line]
     assert len(lines) == 1 and 'is invalid: must be ideal or realistic' in lines[0], demo.output()
     assert 'Traceback' not in demo.output(), demo.output()

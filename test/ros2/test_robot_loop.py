@@ -22,9 +22,12 @@ def probe():
     probe.close()
 
 
-def stopped(process):
-    assert process.stop() == 0, '%s did not end cleanly on SIGINT:\n%s' % (process.process.args[0], process.output())
-    assert 'Traceback' not in process.output(), process.output()
+def stopped(*processes):
+    """End every one of ``processes`` (all of them, whatever the first says), then check each ended cleanly."""
+    statuses = [process.stop() for process in processes]
+    for process, status in zip(processes, statuses):
+        assert status == 0, '%s did not end cleanly on SIGINT:\n%s' % (process.process.args[0], process.output())
+        assert 'Traceback' not in process.output(), process.output()
 
 
 class Repeater:
@@ -88,8 +91,7 @@ def test_the_gate_and_the_base_take_twist_stamped(probe):
         assert moved is not None, 'fake_base did not drive on TwistStamped:\n' + base.output()
     finally:
         commands.close(probe)
-        stopped(gate)
-        stopped(base)
+        stopped(gate, base)
 
 
 def test_the_dock_contact_reports_contact_from_odometry(probe):
@@ -133,8 +135,7 @@ def test_sim_clock_ticks_its_bounded_step_and_fake_base_follows_it(probe):
             'drove %.2f m in %.1f s of ROS time at 0.3 m/s' % (travelled, t1 - t0)
     finally:
         commands.close(probe)
-        stopped(base)
-        stopped(clock)
+        stopped(base, clock)
 
 
 @pytest.mark.parametrize('executable, parameter, value', [
@@ -143,6 +144,7 @@ def test_sim_clock_ticks_its_bounded_step_and_fake_base_follows_it(probe):
 def test_a_bad_parameter_ends_the_node_with_one_line(executable, parameter, value):
     node = NodeProcess(executable, '-p', '%s:=%s' % (parameter, value), '-r', '__ns:=/bad')
     status = node.wait(20.0)
+    node.stop()   # (if it is still running)
     assert status not in (None, 0), '%s ran with %s = %s:\n%s' % (executable, parameter, value, node.output())
     lines = [line for line in node.output().splitlines() if parameter in line]
     assert len(lines) == 1 and 'is invalid: must be' in lines[0], node.output()
@@ -161,8 +163,7 @@ def test_patrol_and_dock_waits_for_the_battery_then_patrols(probe):
         moved = probe.wait_for('/patrol/odom', Odometry, lambda m: m.pose.pose.position.x > 1.3, 30.0)
         assert moved is not None, 'the robot did not patrol:\n' + behaviour.output() + base.output()
     finally:
-        for process in (behaviour, base, battery):
-            stopped(process)
+        stopped(behaviour, base, battery)
 
 
 def test_sim_clock_holds_ros_time_until_the_named_topics_have_publishers(probe):
