@@ -11,6 +11,6 @@ cmake -S "$root" -B "$root/build" -Dbattery_simulator_WORKSPACE_TEST=ON -Dbatter
 source "$root/build/devel/setup.bash"
 rm -rf "$root/build/test_results/battery_simulator"
 status=0
-(cd "$root/build" && ctest -j3 --output-on-failure --timeout 900) || status=$?
+(cd "$root/build" && ctest -j4 --output-on-failure --timeout 900) || status=$?
 /usr/bin/python3 "$root/tools/summarize_test_results.py" "$root/build/test_results/battery_simulator" || status=1
 exit $status
