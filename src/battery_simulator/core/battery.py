@@ -163,7 +163,8 @@ class Update:
         """The line a front end logs (throttled) after a jump: what happened, and who publishes /clock
         when more than one node does (the usual cause of jumps back and forth)."""
         if self.time_jump == 'backwards':
-            text = 'ROS time moved backwards (to %.3f s): time base restarted, nothing drained' % self.now
+            text = ('ROS time moved backwards (to %.3f s): time base restarted, nothing drained for the jump'
+                    % self.now)
         else:
             text = ('ROS time jumped forwards by more than max_time_jump (%g s) to %.3f s: time base restarted, '
                     'nothing drained' % (max_jump_s, self.now))
@@ -190,8 +191,8 @@ class Battery:
         self._initial_soc = initial_percentage / 100.0
         self.time_scale = time_scale    # as configured (the time base ignores it under sim time)
         self.max_time_jump = max_time_jump
-        self._time_base = TimeBase(1.0, zero_is_unset=True, max_jump_s=max_time_jump) if sim_time \
-            else TimeBase(time_scale)
+        self._time_base = TimeBase(1.0, zero_is_unset=True, max_jump_s=max_time_jump, hold_jumps=True) \
+            if sim_time else TimeBase(time_scale)
         self.mode_generation = 0        # bumped whenever the mode is set other than by the mode value
         self._mode_source = 'parameter'  # who set the mode last (for abort texts)
         self._contact = False           # the charger contact as last reported
@@ -266,7 +267,8 @@ class Battery:
         self._account_motion(now)
         dt_s = self._time_base.elapsed(now)
         motion_w = self._motion_energy_j / dt_s if dt_s > 0.0 else self._motion_power_w(now)
-        self._motion_energy_j = 0.0
+        if not self._time_base.holding:   # a held step keeps its motion energy until it counts
+            self._motion_energy_j = 0.0
         self.model.set_extra_load(MOTION_LOAD, power_w=motion_w)
         self.model.step(dt_s)
         return motion_w

@@ -1,0 +1,80 @@
+"""core/time_base.py under sim time: two /clock publishers interleaving their readings (issue 33 item 14)
+count no faster than one clock, while one honest clock (fast, stalling, reset) counts as it always did."""
+import random
+
+import pytest
+
+from battery_simulator.core.battery import Battery
+from battery_simulator.core.parameters import preset
+from battery_simulator.core.time_base import TimeBase
+
+
+def sim_base():
+    return TimeBase(1.0, zero_is_unset=True, max_jump_s=3600.0, hold_jumps=True)
+
+
+def two_clocks(offset_s, step_s, readings, pick):
+    """Readings of two clocks ``offset_s`` apart, both ``step_s`` per update; ``pick(i)``: True for the
+    second clock's reading at update i. The first clock runs alone for the first 5 updates (one held
+    for a while, as a simulator paused at start), the second one starts after them."""
+    return [1000.0] * 3 + [1000.0 + i * step_s + (offset_s if i > 5 and pick(i) else 0.0) for i in range(readings)]
+
+
+@pytest.mark.parametrize('offset_s', [600.0, -600.0, 3000.0, 40.0])
+@pytest.mark.parametrize('seed', range(8))
+def test_two_interleaving_clocks_count_no_faster_than_one(offset_s, seed):
+    step_s = 6.0                              # sim_clock at speed 60, 10 Hz updates
+    chooser = random.Random(seed)
+    readings = two_clocks(offset_s, step_s, 1000, lambda i: chooser.random() < 0.5)
+    base = sim_base()
+    counted = sum(base.elapsed(now) for now in readings)
+    one_clock_s = 999 * step_s
+    assert counted <= one_clock_s + step_s, \
+        'two clocks %g s apart counted %.0f s where one clock ran %.0f s' % (offset_s, counted, one_clock_s)
+    assert base.jumps_back > 0, 'the switches back are reported (the warning naming the publishers)'
+
+
+@pytest.mark.parametrize('run, owed_s', [(1, 0.0), (2, 0.0), (5, 0.0), (10, 0.0), (150, 600.0)])
+def test_two_clocks_taking_turns_in_runs_count_no_faster_than_one(run, owed_s):
+    """Runs of 150 readings of the second clock (900 s, longer than the 600 s between the clocks) confirm
+    its jump as one clock's: the jump is owed as soon as a reading lands on the first clock's line again,
+    and repaid; at most one jump is outstanding at any time."""
+    base = sim_base()
+    readings = two_clocks(600.0, 6.0, 600, lambda i: (i // run) % 2 == 1)
+    counted = sum(base.elapsed(now) for now in readings)
+    assert counted <= 599 * 6.0 + 6.0 + owed_s, 'runs of %d: counted %.1f s of %.0f s' % (run, counted, 599 * 6.0)
+
+
+def test_a_fast_clock_and_its_stall_count_all_their_time():
+    """sim_clock at speed 1000, 10 Hz updates: 100 s per update, 1000 s across a 1 s stall of the process;
+    the stall counts in full once the readings after it have gone on for as long (10 updates)."""
+    base = sim_base()
+    readings = [1000.0 + 100.0 * i for i in range(10)] + [2900.0 + 100.0 * i for i in range(20)]
+    counted = [base.elapsed(now) for now in readings]
+    assert sum(counted) == pytest.approx(readings[-1] - readings[0])
+    stall = readings.index(2900.0)
+    assert counted[stall:stall + 10] == [0.0] * 10, 'held'
+    assert counted[stall + 10] == pytest.approx(2000.0), 'then counted in full'
+    assert counted[stall + 11] == pytest.approx(100.0)
+
+
+def test_a_reset_and_a_clock_that_catches_up_with_an_old_line():
+    base = sim_base()
+    counted = sum(base.elapsed(now) for now in [5000.0, 5010.0, 5020.0])        # 20 s
+    counted += sum(base.elapsed(now) for now in [100.0 + 10.0 * i for i in range(600)])   # a reset: 5990 s
+    assert counted == pytest.approx(20.0 + 5990.0), 'the clock passing the old line counts on'
+
+
+def test_a_battery_under_two_clocks_drains_no_faster_than_under_one():
+    def drained(readings):
+        clock = [readings[0]]
+        battery = Battery(preset('lg_hg2_3s1p'), 80.0, clock=lambda: clock[0], sim_time=True, max_time_jump=3600.0)
+        start = battery.update().snapshot.percentage
+        for now in readings[1:]:
+            clock[0] = now
+            end = battery.update().snapshot.percentage
+        return start - end
+    chooser = random.Random(3)
+    one = drained(two_clocks(600.0, 0.1, 50, lambda i: False))
+    two = drained(two_clocks(600.0, 0.1, 50, lambda i: chooser.random() < 0.5))
+    assert 0.0 <= two <= one * 1.05 + 1e-9, 'two clocks drained %.3f points, one %.3f' % (two, one)
