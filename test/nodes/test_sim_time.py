@@ -2,8 +2,10 @@
 """rostest: under /use_sim_time the model follows ROS time (time_scale is
 ignored), the first /clock value is a starting point (a clock at epoch time
 drains nothing), a clock that jumps back (simulator reset, rosbag --loop)
-restarts the time base without stopping any node, and the client's timeouts
-stay wall-clock seconds."""
+restarts the time base without stopping any node, a second clock interleaving
+its times with the first (hours apart, or 600 s apart: two sim_clock
+processes) drains no faster than one clock, and the client's timeouts stay
+wall-clock seconds."""
 import subprocess
 import threading
 import time
@@ -30,6 +32,7 @@ class ClockPublisher(threading.Thread):
         self.lock = threading.Lock()
         self.now = rospy.Time(EPOCH_S)
         self.stop = threading.Event()
+        self.paused = threading.Event()   # set: publishes nothing (other clocks run)
 
     def jump_to(self, seconds):
         with self.lock:
@@ -37,6 +40,8 @@ class ClockPublisher(threading.Thread):
 
     def run(self):
         while not self.stop.wait(TICK_WALL_S):
+            if self.paused.is_set():
+                continue
             with self.lock:
                 self.now += rospy.Duration(SIM_STEP_S)
                 now = self.now
@@ -112,6 +117,45 @@ class TestSimTime(unittest.TestCase):
         self.assertLess(used_ah, LOAD_A * honest_s / 3600.0 * 1.5 + 1e-3,
                         'the jumps drained the battery: %.1f %% -> %.1f %%' % (100 * before.percentage,
                                                                                100 * after.percentage))
+        self.assertGreaterEqual(used_ah, -1e-4, 'the jumps charged the battery')
+
+    def test_5_two_sim_clocks_600_s_apart_drain_no_faster_than_one(self):
+        """Two sim_clock processes at the same speed, 600 s apart (below ~max_time_jump): the readings
+        switch between the clocks' lines, and the battery drains as one clock alone makes it (the old
+        rule counted every 600 s jump forwards: 27 points in 5 s)."""
+        speed = SIM_STEP_S / TICK_WALL_S
+        start_s = self.clock.now.to_sec() + 100.0
+        self.clock.paused.set()
+        clocks = []
+
+        def start_clock(name, start):   # ticks at 1000 Hz (the default, as Gazebo)
+            clocks.append(subprocess.Popen(
+                node_command('sim_clock.py') + ['__name:=' + name, '_start:=%f' % start, '_speed:=%g' % speed],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+        try:
+            start_clock('honest_clock', start_s)
+            before = self.status.wait_until(lambda m: start_s < m.header.stamp.to_sec() < start_s + 500.0, 30.0,
+                                            'battery_status on the honest sim_clock')
+            started = time.monotonic()
+            mark = self.status.count()
+            start_clock('clock_600_s_ahead', start_s + 600.0)
+            self.status.wait_new(mark, lambda m: start_s + 600.0 < m.header.stamp.to_sec() < start_s + 1e4, 30.0,
+                                 'battery_status stamped on the clock 600 s ahead')
+            wait_for(lambda: time.monotonic() - started > 8.0, 10.0, '8 s of two clocks')
+            after = self.status.wait_until(lambda m: m.header.stamp.to_sec() > start_s, 10.0,
+                                           'battery_status on the two clocks, 8 s later')
+            wall_s = time.monotonic() - started + 2.0   # + an update period either side
+        finally:
+            for clock in clocks:
+                stop_process(clock)
+            self.clock.jump_to(start_s + 2000.0)
+            self.clock.paused.clear()
+        one_clock_ah = LOAD_A * wall_s * speed / 3600.0
+        used_ah = (before.percentage - after.percentage) * before.capacity
+        self.assertLess(used_ah, one_clock_ah * 1.5 + 1e-3,
+                        'two clocks 600 s apart drained %.2f points in %.0f s (one clock: %.2f points)'
+                        % (100.0 * (before.percentage - after.percentage), wall_s,
+                           100.0 * one_clock_ah / before.capacity))
         self.assertGreaterEqual(used_ah, -1e-4, 'the jumps charged the battery')
 
     def test_3_client_timeouts_are_wall_seconds(self):

@@ -13,7 +13,7 @@ latest reading is the greatest at or below it. Time counts along the line of
 the previous reading only; a reading on another known line (the other clock)
 switches lines and counts nothing, so two clocks interleaving age the battery
 no faster than one of them alone. A forward step much larger than the line's
-last one (``HOLD_FACTOR``) is held until ``CONFIRM_READINGS`` readings carry on
+recent ones (``HOLD_FACTOR``: an update's jitter stays below it) is held until ``CONFIRM_READINGS`` readings carry on
 from it and have gone on for as long as the step: an honest clock that stalled
 (1000 s of sim_clock at speed 1000, 100 s per update) then counts all of it,
 10 updates late; a reading back on the old line first shows it was a second
@@ -23,20 +23,27 @@ should the first one be read again, the jump is owed (not counted twice).
 """
 import copy
 
-HOLD_FACTOR = 3.0        # a forward step this many times the line's last one is held until confirmed
+HOLD_FACTOR = 3.0        # a forward step this many times the line's recent ones is held until confirmed
 CONFIRM_READINGS = 6     # readings (the held one included) on from a held step that confirm it, once
                          # they have gone on for as long as the step was (one clock's progress)
 MAX_LINES = 4            # lines remembered (the least recently read goes first)
+MIN_STEPS = 3            # steps a line counts before it holds any
+RECENT_STEPS = 10        # steps a line's step size is taken from (the largest of them)
 
 
 class _Line:
-    """One line of time: its latest reading and the last step counted along it (None: none yet)."""
-    __slots__ = ('last', 'step', 'debt')
+    """One line of time: its latest reading, its recent steps, and a debt."""
+    __slots__ = ('last', 'steps', 'debt')
 
-    def __init__(self, last, step=None, debt=0.0):
+    def __init__(self, last, steps=(), debt=0.0):
         self.last = last
-        self.step = step
-        self.debt = debt   # s counted for a confirmed jump away from this line, owed should it be read again
+        self.steps = list(steps)   # the last RECENT_STEPS steps > 0 counted along it
+        self.debt = debt           # s counted for a confirmed jump away from it, owed should it be read again
+
+    @property
+    def step(self):
+        """The largest recent step (an update's jitter stays below it); None before the first one."""
+        return max(self.steps) if self.steps else None
 
 
 class TimeBase:
@@ -58,7 +65,7 @@ class TimeBase:
         self._lines = []          # known lines, the least recently read first
         self._line = None         # the line of the previous reading
         self._previous = None     # the previous reading
-        self._held = None         # [first, latest, readings] of a held forward step from self._line
+        self._held = None         # [first, latest, readings, largest step] of a held step from self._line
         self._debt = 0.0          # s counted for a jump that proved to be another clock's, not counted again
         self.jumps_back = 0       # readings earlier than the previous one (a restart or the other clock)
         self.jumps_forward = 0    # forward jumps beyond max_jump_s seen
@@ -95,18 +102,23 @@ class TimeBase:
             self._new_line(now)
             return 0.0
         if self._held is not None:
-            first, latest, readings = self._held
-            if now >= latest and not self._big(self._line, now - latest):   # on from the held step
+            first, latest, readings, largest = self._held
+            step = now - latest
+            if now >= latest and not self._big(self._line, step, largest):   # on from the held step
+                largest = max(largest, step)
                 if readings + 1 < CONFIRM_READINGS or now - first < first - self._line.last:
-                    self._held = [first, now, readings + 1]
+                    self._held = [first, now, readings + 1, largest]
                     return 0.0
                 self._held = None                   # confirmed: one clock that stepped far (or a second
                 origin = self._line                 # clock that ran alone for a while: its line is kept,
-                step = origin.step                  # and the jump is owed should a reading land on it)
-                self._remember(_Line(origin.last, step, first - origin.last - step))
-                return self._count(origin, now, now - latest)
-            self._held = None                       # not on from it: the held reading was another clock's
-            self._remember(_Line(latest, self._line.step))
+                steps = origin.steps                # and the jump is owed should a reading land on it)
+                self._remember(_Line(origin.last, steps, first - origin.last - max(steps)))
+                return self._count(origin, now, step)
+            if now >= latest:                       # far on again: the held part counts, the rest is held
+                self._held = [now, now, 1, 0.0]
+                return self._count(self._line, latest, latest - self._line.last)
+            self._held = None                       # back below it: the held reading was another clock's
+            self._remember(_Line(latest, self._line.steps))
         below = [line for line in self._lines if line.last <= now]
         line = max(below, key=lambda line: line.last) if below else None
         if line is None:                            # earlier than every line: a restart
@@ -120,7 +132,7 @@ class TimeBase:
         current = self._line
         step = now - current.last
         if line is not current:
-            if now >= previous and current.step is not None and not self._big(current, step):
+            if now >= previous and len(current.steps) >= MIN_STEPS and step <= HOLD_FACTOR * current.step:
                 self._lines.remove(line)            # the line passed a line no clock reads any more
             else:
                 if now < previous:                  # back to another known line: the other clock
@@ -132,19 +144,20 @@ class TimeBase:
                 self._remember(line)
                 return 0.0
         if self._big(current, step):
-            self._held = [now, now, 1]
+            self._held = [now, now, 1, 0.0]
             return 0.0
         return self._count(current, now, step)
 
-    def _big(self, line, step):
-        """A step to hold: far beyond the line's last (none yet, as after a start or a pause: not held)."""
-        return self._hold_jumps and line.step is not None and step > HOLD_FACTOR * line.step
+    def _big(self, line, step, largest=0.0):
+        """A step to hold: far beyond the line's recent ones (and ``largest``); a line of fewer than
+        MIN_STEPS steps (after a start or a restart) holds nothing."""
+        return self._hold_jumps and len(line.steps) >= MIN_STEPS and step > HOLD_FACTOR * max(line.step, largest)
 
     def _count(self, line, now, step):
         counted = now - line.last
         line.last = now
         if step > 0.0:
-            line.step = step
+            line.steps = line.steps[1 - RECENT_STEPS:] + [step]
         self._remember(line)
         return counted
 
