@@ -32,6 +32,8 @@ def config_file(name, content):
 
 SERVER, PUBLISHER, FLEET, CLOCK = 'battery_sim_server.py', 'battery_state_pub.py', 'battery_fleet.py', 'sim_clock.py'
 BAD_VALUE_YAML = config_file('bad_value', b'preset: lg_hg2_3s1p\nload_current_a: -2\n')
+USER_FILE_BYTES = b'# my robot\npreset: lg_hg2_3s1p\nload_current_a: 2.0\n'
+USER_FILE = config_file('my_robot_config', USER_FILE_BYTES)   # a typo: state_file:= the robot's config
 #: case -> (script, [param:=value ...]); each runs once, all at once
 CASES = {
     'time_scale': (SERVER, ['_time_scale:=-3']),
@@ -60,6 +62,9 @@ CASES = {
     'launch_hosts_zero': (FLEET, ['_fleet_size:=3', '_hosts:=0', '_host_index:=0']),
     'launch_hosts_negative': (FLEET, ['_fleet_size:=3', '_hosts:=-2', '_host_index:=0']),
     'launch_hosts_above_n': (FLEET, ['_fleet_size:=2', '_hosts:=5', '_host_index:=0']),
+    'state_file_not_a_state_file': (SERVER, ['_state_file:=' + USER_FILE]),
+    'state_file_unwritable': (SERVER, ['_state_file:=/nonexistent_dir/x.json']),
+    'state_file_a_directory': (SERVER, ['_state_file:=' + CONFIG_DIR]),
     'clock_start': (CLOCK, ['_start:=5e9']),
     'clock_start_int': (CLOCK, ['_start:=5000000000']),
     'clock_runs_out': (CLOCK, ['_start:=4294967294.9', '_speed:=10']),
@@ -118,6 +123,13 @@ class TestBadStartup(unittest.TestCase):
                               ('absurd_load', 'load_current_a')):
             with self.subTest(case=case):
                 self.check_rejected(case, 'config', CASES[case][1][0].split(':=')[1], allowed)
+
+    def test_a_state_file_that_is_not_one_or_cannot_be_written_stops_the_server(self):
+        self.check_rejected('state_file_not_a_state_file', 'state_file', USER_FILE, 'never written over')
+        with open(USER_FILE, 'rb') as stream:
+            self.assertEqual(stream.read(), USER_FILE_BYTES, "the user's file was written over")
+        self.check_rejected('state_file_unwritable', 'state_file', '/nonexistent_dir/x.json', 'cannot be written')
+        self.check_rejected('state_file_a_directory', 'state_file', CONFIG_DIR, 'it is a directory')
 
     def test_publisher_rejects_bad_rate(self):
         self.check_rejected('rate', 'rate', '0', 'a number in (0, 1000] Hz')

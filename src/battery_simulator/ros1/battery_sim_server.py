@@ -11,8 +11,9 @@ from battery_simulator.core.parameters import ParameterError, load_yaml
 from battery_simulator.core.settings import BATTERY_SETTINGS
 from battery_simulator.ros1.action_server import BatterySimServer
 from battery_simulator.ros1.saved_state import StateStore
-from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, exit_on_startup_error,
-                                            init_node, read_private_settings, signals_held, wait_for_rosout)
+from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, check_state_file_param,
+                                            exit_on_startup_error, init_node, read_private_settings, signals_held,
+                                            wait_for_rosout)
 from battery_simulator.ros1.workers import StatusTimer, UpdateLoop
 
 
@@ -25,6 +26,7 @@ def read_settings():
         raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), settings['config'],
                                                                  error)) from None
     settings['params_path'] = settings.pop('config')
+    check_state_file_param(settings['state_file'])
     return settings
 
 

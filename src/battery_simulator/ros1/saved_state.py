@@ -38,8 +38,10 @@ class StateStore:
             return saved, 'the parameter server (%s)' % self.param_name
         try:
             saved = read_state_file(self.state_file)
-        except (OSError, ValueError) as error:
-            rospy.logwarn('cannot read state file %s (%s): starting fresh', self.state_file, error)
+        except (OSError, ValueError) as error:   # checked at start (startup.check_state_file_param): it changed
+            rospy.logerr('cannot read state file %s (%s): starting fresh, and the file is never written over',
+                         self.state_file, error)
+            self.state_file = ''
             return None, None
         return (saved, self.state_file) if saved is not None else (None, None)
 

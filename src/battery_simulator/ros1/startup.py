@@ -9,6 +9,7 @@ import rosgraph
 import rospy
 
 from battery_simulator.core.parameters import is_number, number_from_text
+from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
 
 FATAL_FLUSH_S = 0.3   # how long a dying node gives its last line to reach /rosout
@@ -36,6 +37,17 @@ def read_private_settings(settings):
     """{name: value} of core/settings.py Settings read as private parameters (``~name``), checked."""
     return {setting.name: checked_param('~' + setting.name, setting.default, setting.check, setting.allowed)
             for setting in settings}
+
+
+def check_state_file_param(path, name='~state_file', fleet=False):
+    """StartupError (one line naming the parameter) for a ``path`` that exists and is not a state file (it is
+    never written over) or that cannot be written; '' (no file) passes."""
+    if path:
+        try:
+            check_state_file(path, fleet)
+        except StateFileError as error:
+            raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name(name), path, error)) \
+                from None
 
 
 _clock_publishers = (-float('inf'), [])   # (monotonic time, names) of the last lookup
