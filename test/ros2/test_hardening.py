@@ -4,6 +4,7 @@ shutdown with a goal, state files, predict beside the batteries, parameters, the
 Each process runs in a namespace of its own; every wait has a bound."""
 import json
 import os
+import random
 import signal
 import statistics
 import threading
@@ -13,6 +14,8 @@ import pytest
 from action_msgs.msg import GoalStatus, GoalStatusArray
 from rcl_interfaces.srv import SetParametersAtomically
 from rclpy.parameter import Parameter
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
@@ -178,6 +181,56 @@ def test_a_predict_flood_does_not_delay_another_robot(probe):
     finally:
         stop.set()
         stop_all(fleet)
+
+
+# -- item 14: two /clock publishers ------------------------------------------------------------------
+
+def test_two_clocks_600_s_apart_drain_no_faster_than_one(probe):
+    """Two /clock publishers at the same speed (20x), 600 s apart, their ticks interleaved: the battery
+    drains as one clock alone makes it (on main: every jump forwards counted, 27 points in 5 s)."""
+    speed, tick_s = 20.0, 0.005
+    start_s = 1.7e9
+    clocks = [probe.node.create_publisher(Clock, '/clock', 10) for _ in range(2)]
+    now = [start_s]
+    second_clock = threading.Event()
+    stop = threading.Event()
+
+    def tick():
+        chooser = random.Random(14)
+        while not stop.wait(tick_s):
+            now[0] += speed * tick_s
+            order = [0, 1] if chooser.random() < 0.5 else [1, 0]
+            for index in order:
+                if index == 0 or second_clock.is_set():
+                    clocks[index].publish(Clock(clock=Time(seconds=now[0] + 600.0 * index).to_msg()))
+    ticker = threading.Thread(target=tick, daemon=True)
+    ticker.start()
+    process = NodeProcess('battery_sim', '-r', '__ns:=/twoclocks', '-p', 'use_sim_time:=true',
+                          '-p', 'initial_percentage:=80.0')
+    try:
+        first = probe.wait_for('/twoclocks/battery_status', BatteryState,
+                               lambda m: m.header.stamp.sec > start_s + 5.0, 25.0)
+        assert first is not None, 'no battery_status on the first clock:\n' + process.output()
+        since = time.monotonic()
+        second_clock.set()
+        assert probe.wait_for('/twoclocks/battery_status', BatteryState,
+                              lambda m: m.header.stamp.sec > now[0] + 500.0, 10.0, since=since) is not None, \
+            'no battery_status stamped on the second clock'
+        stop.wait(5.0)
+        last = probe.wait_for('/twoclocks/battery_status', BatteryState, timeout_s=5.0, since=time.monotonic())
+        assert last is not None, process.output()
+        elapsed_s = (time.monotonic() - since + 2.0) * speed   # + an update either side
+        one_clock = 1.5 * elapsed_s / 3600.0 / first.capacity
+        drained = first.percentage - last.percentage
+        assert -1e-4 <= drained <= 1.5 * one_clock + 0.002, \
+            'two clocks 600 s apart drained %.2f points in %.1f s (one clock: %.2f points)' % (
+                100 * drained, elapsed_s / speed, 100 * one_clock)
+    finally:
+        stop.set()
+        ticker.join(2.0)
+        for clock in clocks:
+            probe.node.destroy_publisher(clock)
+        assert process.stop() == 0, process.output()
 
 
 # -- items 15 and 16: parameters ---------------------------------------------------------------------
