@@ -3,6 +3,7 @@ shutdown with a goal, state files, predict beside the batteries, parameters, the
 
 Each process runs in a namespace of its own; every wait has a bound."""
 import json
+import math
 import os
 import random
 import signal
@@ -20,6 +21,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
 from battery_simulator.action import BatterySim
+from battery_simulator.core.prediction import MAX_SEGMENTS
 from battery_simulator.srv import Predict
 from ros2_probe import LATCHED, NodeProcess, Probe
 
@@ -152,35 +154,64 @@ def test_an_unwritable_state_file_is_one_line_at_start(tmp_path, path):
 # -- item 13: predict never delays the batteries -----------------------------------------------------
 
 def test_a_predict_flood_does_not_delay_another_robot(probe):
-    fleet = NodeProcess('battery_fleet', '-p', 'robots:=2', '-p', 'prefix:=flood', '-p', 'time_scale:=1.0')
+    """4 clients flood robot0 of a fleet host with plans of the contract's most segments (100,000 power loads
+    that differ, 6 s each: a week; 1.6 s of CPU each): robot1 follows its contact within 0.5 s (median) and robot2's
+    battery_status keeps its 1 s period (within 0.2 s). Predict in the host's executor (the old design)
+    made them 0.8 s and 1.6 s here (3.6 s and 1.8 s in the issue)."""
+    fleet = NodeProcess('battery_fleet', '-p', 'robots:=3', '-p', 'prefix:=flood', '-p', 'time_scale:=1.0')
     stop = threading.Event()
+    answered = []
     try:
-        started(probe, '/flood1', fleet)
-        plan = Predict.Request(duration_s=[1.0] * 100000, current_a=[2.0] * 100000, charge_to_percentage=90.0)
+        for robot in range(3):
+            started(probe, '/flood%d' % robot, fleet)
+        count = MAX_SEGMENTS
+        plan = Predict.Request(duration_s=[6.0] * count, power_w=[1.0 + 0.5 * (i % 7) for i in range(count)])
 
         def flood():
             while not stop.is_set():
                 try:
-                    probe.call(Predict, '/flood0/battery_simulator/predict', plan, timeout_s=20.0)
+                    answered.append(probe.call(Predict, '/flood0/battery_simulator/predict', plan,
+                                               timeout_s=30.0).success)
                 except AssertionError:
                     pass
         threads = [threading.Thread(target=flood, daemon=True) for _ in range(4)]
         for thread in threads:
             thread.start()
-        time.sleep(1.0)   # the flood under way
+        assert wait_until(lambda: answered, 30.0), 'no predict answered within 30 s'
+        status2 = probe.follow('/flood2/battery_status', BatteryState)
+        measured_from, answered_before = time.monotonic(), len(answered)
         contact = probe.node.create_publisher(Bool, '/flood1/charger_contact', 10)
         delays = []
-        for connected in (True, False, True, False, True, False):
+        for connected in (True, False, True, False, True, False, True, False):
             since = time.monotonic()
             contact.publish(Bool(data=connected))
             msg = probe.wait_for('/flood1/battery_status', BatteryState,
-                                 lambda m, c=connected: (m.power_supply_status == CHARGING) == c, 5.0, since=since)
-            assert msg is not None, 'robot1 did not follow its contact within 5 s during the flood'
+                                 lambda m, c=connected: (m.power_supply_status == CHARGING) == c, 10.0, since=since)
+            assert msg is not None, 'robot1 did not follow its contact within 10 s during the flood'
             delays.append(time.monotonic() - since)
-        assert statistics.median(delays) < 0.5, 'contact -> status delays during a flood of robot0: %s' % delays
+            stop.wait(0.3)
+        stop.wait(max(0.0, measured_from + 6.0 - time.monotonic()))   # robot2's period over 6 s at least
+        arrivals = [at for at, _ in list(status2) if at >= measured_from]
+        period_s = (arrivals[-1] - arrivals[0]) / (len(arrivals) - 1) if len(arrivals) > 1 else math.inf
+        during = answered[answered_before:]
+        assert statistics.median(delays) < 0.5, 'contact -> status delays during a flood of robot0: %s' % \
+            ', '.join('%.2f s' % delay for delay in delays)
+        assert 0.8 <= period_s <= 1.2, "robot2's battery_status period during the flood: %.2f s (%d messages)" % (
+            period_s, len(arrivals))
+        assert sum(during) > 0, 'the flood went on while measured (%d answers, %d successful)' % (
+            len(during), sum(during))
     finally:
         stop.set()
         stop_all(fleet)
+
+
+def wait_until(condition, timeout_s):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
 
 
 # -- item 14: two /clock publishers ------------------------------------------------------------------
