@@ -364,3 +364,38 @@ def test_state_file_json_is_written(tmp_path, probe):
         assert path.exists() and 'state_of_charge' in json.loads(path.read_text())
     finally:
         stop_all(process)
+
+
+# -- low: a fleet's state file after SIGKILL ---------------------------------------------------------
+
+def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
+    """A fleet host at time x300 (updates at 1 Hz: 300 s of battery each) killed with SIGKILL just before
+    an update resumes within 1 point of the level it had when killed (on main: the last update's, up to
+    4.5 points higher)."""
+    args = ('-p', 'robots:=1', '-p', 'prefix:=killed', '-p', 'time_scale:=300.0',
+            '-p', 'state_file:=' + str(tmp_path / 'fleet.json'))
+    fleet = NodeProcess('battery_fleet', *args)
+    try:
+        started(probe, '/killed0', fleet)
+        statuses = probe.follow('/killed0/battery_status', BatteryState)
+        assert wait_until(lambda: len({round(m.percentage, 6) for _, m in list(statuses)}) >= 3, 10.0), \
+            'battery_status did not move:\n' + fleet.output()
+        (_, previous), (_, last) = list(statuses)[-2:]
+        stamp = lambda msg: msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        rate = (previous.percentage - last.percentage) / (stamp(last) - stamp(previous))   # per wall second
+        assert rate > 0.0, 'not draining'
+        killed_at = stamp(last) + 0.9   # just before the next update
+        time.sleep(max(0.0, killed_at - time.time()))
+        killed_at = time.time()
+        fleet.process.kill()
+        level = 100.0 * (last.percentage - rate * (killed_at - stamp(last)))
+    finally:
+        fleet.stop(signal.SIGKILL)
+    again = NodeProcess('battery_fleet', *args)
+    try:
+        assert again.wait_for_output('resumed from', 20.0), again.output()
+        line = next(line for line in again.output().splitlines() if 'resumed from' in line)
+        resumed = float(line.split('resumed from')[1].split(':')[1].split('%')[0])
+        assert abs(resumed - level) <= 1.0, 'killed at %.2f %%, resumed at %.1f %%:\n%s' % (level, resumed, line)
+    finally:
+        assert again.stop() == 0, again.output()

@@ -104,7 +104,7 @@ class FleetHost:
 
     def __init__(self, robots, configs, server, publisher, fleet_rate):
         self._fleet_rate = fleet_rate
-        self.store = FleetStore(rospy.resolve_name('~saved_states'))
+        self.store = FleetStore(rospy.resolve_name('~saved_states'), server['time_scale'])
         self.loop = UpdateLoop(server['update_rate'], after_round=self.store.write_if_due)
         status_timer, self.changes = StatusTimer(), ChangeLoop()
         self.names, self.servers, self.publishers = [], [], []

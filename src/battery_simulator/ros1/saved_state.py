@@ -16,8 +16,8 @@ import time
 import rospy
 
 # the saving rule's figures are the ROS-free state file's (ROS 2 keeps its state with them too)
-from battery_simulator.core.state_file import (FLEET_SAVE_PERIOD_S, SAVE_EVERY_PERCENT, SAVE_EVERY_S, read_state_file,
-                                               write_state_file)
+from battery_simulator.core.state_file import (SAVE_EVERY_PERCENT, SAVE_EVERY_S, fleet_save_period_s,
+                                               read_state_file, write_state_file)
 
 FILE_EVERY_S = 10.0        # the state file is written at most this often, and at shutdown
 
@@ -78,10 +78,12 @@ class StateStore:
 
 class FleetStore:
     """Every robot's saved state in one parameter (JSON text of a dict by robot name), written at most every
-    FLEET_SAVE_PERIOD_S and only when a robot moved SAVE_EVERY_PERCENT (or SAVE_EVERY_S passed)."""
+    fleet_save_period_s(time_scale) (0.5 s; 0.067 s at x300, so that a resume after SIGKILL is within 1 %)
+    and only when a robot moved SAVE_EVERY_PERCENT (or SAVE_EVERY_S passed)."""
 
-    def __init__(self, param_name):
+    def __init__(self, param_name, time_scale=1.0):
         self.param_name = param_name
+        self.period_s = fleet_save_period_s(1.0 if rospy.get_param('/use_sim_time', False) else time_scale)
         self._lock = threading.Lock()
         try:
             saved = json.loads(rospy.get_param(param_name, '{}'))
@@ -99,7 +101,7 @@ class FleetStore:
         """Write the states if any changed and the period passed (a timer calls this)."""
         with self._lock:
             now = time.monotonic()
-            if not force and (not self._changed or now - self._written_at < FLEET_SAVE_PERIOD_S):
+            if not force and (not self._changed or now - self._written_at < self.period_s):
                 return
             states, self._changed, self._written_at = dict(self._states), False, now
         try:

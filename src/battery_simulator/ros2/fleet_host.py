@@ -32,11 +32,11 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from battery_simulator.core.battery_log import resume_battery
+from battery_simulator.core.battery_log import resume_battery, say_ready
 from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, is_first,
                                           is_fleet_rate, robot_configs, robot_params, robot_specs)
 from battery_simulator.core.parameters import load_yaml
-from battery_simulator.core.state_file import FleetStateFile
+from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_s
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2 import services
@@ -120,7 +120,7 @@ class Robot:
         self.battery = make_battery(self.node, battery_settings, params, charging, self.log)
         declare_live(self.node, self.battery)
         self.store = store.robot(spec.name)
-        self.resumed = resume_battery(self.battery, self.store.load(), 'the fleet state file', self.log) is not None
+        self.resumed = resume_battery(self.battery, self.store.load(), 'the fleet state file', self.log)
         self.status = BatteryStatePublisher(self.node, '', spec.name + '/battery_state_pub', log=self.log, **settings.publisher)
         self.front = BatterySimServer(self.node, self.battery, '', self.log, self.status, self.store)
         self.node.add_on_set_parameters_callback(self.front.on_set_parameters)
@@ -131,8 +131,10 @@ class FleetHost:
 
     def __init__(self, node, settings, executor):
         self._node = node
-        self._store = FleetStateFile(settings.battery['state_file'], NodeLog(node.get_logger()).warn) \
-            if settings.battery['state_file'] else _NoStore()
+        save_period_s = fleet_save_period_s(1.0 if node.get_parameter('use_sim_time').value else
+                                            settings.battery['time_scale'])
+        self._store = FleetStateFile(settings.battery['state_file'], NodeLog(node.get_logger()).warn,
+                                     period_s=save_period_s) if settings.battery['state_file'] else _NoStore()
         self.robots = [Robot(spec, settings, robot_params(settings.configs[spec.config], spec.name), self._store,
                              executor)
                        for spec in settings.robots]
@@ -150,6 +152,16 @@ class FleetHost:
         self._diagnostics = diagnostics_publisher(node, [robot.status for robot in self.robots])
         self._diagnostics_due = start
         node.create_timer(1.0 / settings.battery['update_rate'], self._tick, clock=steady_clock())
+        if settings.battery['state_file'] and save_period_s < 1.0 / settings.battery['update_rate']:
+            # an update (300 s of battery at x300, 1 Hz) is more than a resume after SIGKILL may lose
+            node.create_timer(save_period_s, self._save, clock=steady_clock())
+
+    def _save(self):
+        """Keep every battery's state as it is now (stepped to now) and write the state file."""
+        for robot in self.robots:
+            robot.battery.advance_to_now()
+            robot.store.maybe_save(robot.battery.export_state())
+        self._store.write_if_due()
 
     def _tick(self):
         """Update every battery; publish the battery_status that are due, the diagnostics and the fleet's states."""
@@ -222,6 +234,9 @@ def main(args=None):
         except StartupError as error:
             exit_on_startup_error(error, node.get_logger())
         services.start_workers()
+        for robot in host.robots:
+            if robot.resumed:
+                say_ready(robot.battery, robot.log, robot.resumed, resumed_only=True)
         node.get_logger().info('battery_fleet ready: %d robots (%s ... %s), update %g Hz, battery_status %g Hz' % (
             len(host.robots), host.robots[0].name, host.robots[-1].name, settings.battery['update_rate'],
             settings.publisher['rate']))
