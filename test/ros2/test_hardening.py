@@ -303,6 +303,47 @@ def test_time_scale_has_an_upper_bound(sim, probe):
     assert not result.successful and 'time_scale' in result.reason, result
 
 
+@pytest.mark.parametrize('name, value, said', [
+    ('undeclared_thing', 1.0, ['undeclared_thing', 'is not a parameter of /hard/battery_simulator', 'time_scale']),
+    ('use_sim_time', 'x', ['use_sim_time', "'x'", 'true or false']),
+    ('config', 'other.yaml', ['config', 'read at start only'])])
+def test_rclpys_refusals_become_the_packages_reasons(sim, probe, name, value, said):
+    """Low: rclpy's own texts ("Invalid access to undeclared parameter(s): []", "Wrong parameter type,
+    expected '1' got '4'", "Trying to set a read-only parameter") become one line naming the parameter."""
+    result = probe.set_parameter('/hard/battery_simulator', name, value)
+    assert not result.successful, result
+    for text in said:
+        assert text in result.reason, 'no %r in the refusal: %s' % (text, result.reason)
+    assert len(result.reason.splitlines()) == 1 and 'parameter(s)' not in result.reason, result.reason
+
+
+@pytest.mark.parametrize('executable', ['battery_sim', 'battery_fleet'])
+def test_an_empty_config_is_one_line_naming_it(executable):
+    """Low: ``-p config:=`` (no value) was rcl's traceback."""
+    process = NodeProcess(executable, '-r', '__ns:=/empty_config', '-p', 'config:=')
+    try:
+        assert process.wait(15.0) not in (None, 0), process.output()
+        lines = [line for line in process.output().splitlines() if line.strip()]
+        assert len(lines) == 1 and 'config' in lines[0] and 'Traceback' not in process.output(), process.output()
+    finally:
+        stop_all(process)
+
+
+def test_a_lone_battery_state_pub_beside_a_fleet_robot_exits_naming_the_host(probe):
+    """Low: battery_state_pub in /robotN while a fleet host serves robotN doubled its battery_status."""
+    fleet = NodeProcess('battery_fleet', '-p', 'robots:=2', '-p', 'prefix:=lonepub')
+    publisher = None
+    try:
+        started(probe, '/lonepub1', fleet)
+        publisher = NodeProcess('battery_state_pub', '-r', '__ns:=/lonepub1')
+        assert publisher.wait(20.0) not in (None, 0), 'battery_state_pub ran beside the fleet robot:\n' + \
+            publisher.output()
+        lines = [line for line in publisher.output().splitlines() if line.strip()]
+        assert len(lines) == 1 and '/battery_fleet' in lines[0] and 'fleet host' in lines[0], publisher.output()
+    finally:
+        stop_all(*[p for p in (publisher, fleet) if p is not None])
+
+
 @pytest.mark.parametrize('value,ok', [('1', True), ('true', True), ('0', True), ('maybe', False), ('2', False)])
 def test_charging_at_start(probe, value, ok):
     ns = '/start_charging_%s' % value

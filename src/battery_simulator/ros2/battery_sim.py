@@ -38,7 +38,8 @@ from battery_simulator.ros2 import services
 from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer, mode_refusal
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, descriptor, ending_quietly,
-                                            exit_on_startup_error, init, parameter_name, run)
+                                            exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
+                                            run)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 DIAGNOSTIC_PERIOD_S = 0.5
@@ -181,6 +182,8 @@ def main(args=None):
         executor = SingleThreadedExecutor()
         executor.add_node(battery_node)
         executor.add_node(status_node)
+        for node in (battery_node, status_node):
+            explain_parameter_refusals(node)
         claim = BatteryClaim(battery_node, [battery_node.get_namespace()],
                              battery_node.get_fully_qualified_name())
         try:

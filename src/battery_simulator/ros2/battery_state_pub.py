@@ -25,8 +25,9 @@ from battery_simulator.core import topics
 from battery_simulator.ros2.battery_sim import (OneBattery, finish, publish_diagnostics, read_publisher_settings,
                                                  steady_clock)
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (BatteryClaim, StartupError, ending_quietly, exit_on_startup_error, init,
-                                            parameter_name, run)
+from battery_simulator.ros2.startup import (BatteryClaim, StartupError, claimed_by, ending_quietly,
+                                            exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
+                                            run)
 from battery_simulator.ros2.messages import ReceivedState
 from battery_simulator.ros2.qos import STATUS_QOS
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
@@ -46,6 +47,21 @@ def other_state_pub(node):
     return sum(1 for n, ns in node.get_node_names_and_namespaces() if n == name and ns == namespace) > 1
 
 
+def status_published_by_battery(node, executor, timeout_s=1.0):
+    """Whether this namespace's battery_simulator node publishes battery_status itself (a fleet host's
+    robot does; battery_sim's battery leaves it to its battery_state_pub), looked for up to ``timeout_s``."""
+    topic = node.resolve_topic_name(topics.BATTERY_STATUS)
+    namespace = node.get_namespace()
+    deadline = time.monotonic() + timeout_s
+    while True:
+        if any(info.node_name == BATTERY_NODE and info.node_namespace == namespace
+               for info in node.get_publishers_info_by_topic(topic)):
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        executor.spin_once(timeout_sec=0.1)
+
+
 def wait_for_battery_node(node, executor, wait_s):
     deadline = time.monotonic() + wait_s
     while time.monotonic() < deadline:
@@ -59,6 +75,7 @@ def main(args=None):
     with ending_quietly():
         init(args)
         node = Node('battery_state_pub')
+        explain_parameter_refusals(node)
         wait_s = node.declare_parameter('wait_s', 3.0, ParameterDescriptor(
             description='how long to look for a battery_simulator node in this namespace before running '
                         'a battery of its own, s', read_only=True, dynamic_typing=True)).value
@@ -76,6 +93,13 @@ def main(args=None):
                                        'one would publish every battery_status twice; battery_state_pub alone is '
                                        'for a namespace without battery_sim' % (
                                            node.get_fully_qualified_name(), node.get_namespace()))
+                if status_published_by_battery(node, executor):
+                    host = claimed_by(node, executor, node.get_namespace()) or '%s/%s' % (
+                        node.get_namespace().rstrip('/'), BATTERY_NODE)
+                    raise StartupError('battery_status of %s is already published by %s (its battery and '
+                                       'battery_status are one node): a second battery_state_pub would publish '
+                                       'it twice; battery_state_pub alone is for a namespace without one' % (
+                                           node.get_namespace(), host))
                 publisher = read_publisher_settings(node)
                 status = BatteryStatePublisher(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **publisher)
                 node.create_subscription(BatterySimState, topics.STATE_TOPIC,

@@ -45,7 +45,8 @@ from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, ch
                                                  read_publisher_settings, steady_clock)
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, ending_quietly,
-                                            exit_on_startup_error, init, parameter_name, run)
+                                            exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
+                                            run)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 FLEET_STATES = '/battery_fleet/states'
@@ -113,6 +114,7 @@ class Robot:
     def __init__(self, spec, settings, params, store, executor):
         self.name = spec.name
         self.node = Node('battery_simulator', namespace='/' + spec.name)
+        explain_parameter_refusals(self.node)
         executor.add_node(self.node)
         self.log = NodeLog(self.node.get_logger())
         charging = declare_mode(self.node, spec.charging)
@@ -222,6 +224,7 @@ def main(args=None):
     with ending_quietly():
         init(args)
         node = Node('battery_fleet')
+        explain_parameter_refusals(node)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         host = claim = None

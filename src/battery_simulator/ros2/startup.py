@@ -10,6 +10,7 @@ runs until their results are sent (at most FINISH_S), and only then is the conte
 import contextlib
 import json
 import os
+import re
 import signal
 import socket
 import sys
@@ -17,7 +18,7 @@ import threading
 import time
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.executors import ExternalShutdownException
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -70,6 +71,45 @@ def declare_bool(node, name, default, description, read_only=False):
         type=ParameterType.PARAMETER_BOOL, description=description, read_only=read_only)).value
 
 
+#: what a parameter of a fixed type takes, in a refusal
+TYPE_WORDS = {ParameterType.PARAMETER_BOOL: 'true or false', ParameterType.PARAMETER_INTEGER: 'an integer',
+              ParameterType.PARAMETER_DOUBLE: 'a number', ParameterType.PARAMETER_STRING: 'a string',
+              ParameterType.PARAMETER_BYTE_ARRAY: 'a byte array', ParameterType.PARAMETER_BOOL_ARRAY: 'a bool array',
+              ParameterType.PARAMETER_INTEGER_ARRAY: 'an integer array',
+              ParameterType.PARAMETER_DOUBLE_ARRAY: 'a number array',
+              ParameterType.PARAMETER_STRING_ARRAY: 'a string array'}
+
+
+def explain_parameter_refusals(node):
+    """rclpy refuses a run-time set of an undeclared, read-only or mistyped parameter with texts of its own
+    ("Invalid access to undeclared parameter(s): []", "Wrong parameter type, expected '1' got '4'"): the
+    node's set_parameters services answer with the package's one-line reason instead, naming the parameter
+    and what is allowed (its parameters; a start-up value; the type). Anything else goes on as before."""
+    original = node.set_parameters_atomically   # both services call it (set_parameters: one at a time)
+
+    def checked(parameters):
+        reason = parameter_refusal(node, parameters)
+        return SetParametersResult(successful=False, reason=reason) if reason else original(parameters)
+    node.set_parameters_atomically = checked
+
+
+def parameter_refusal(node, parameters):
+    """The reason a run-time set of ``parameters`` is refused before any rule of ours sees it, or None."""
+    for parameter in parameters:
+        if not node.has_parameter(parameter.name):
+            return '%s is not a parameter of %s; its parameters: %s' % (
+                parameter.name, node.get_fully_qualified_name(), ', '.join(sorted(node.list_parameters([], 0).names)))
+        described = node.describe_parameter(parameter.name)
+        if described.read_only:
+            return '%s of %s is read at start only: start the node again with -p %s:=VALUE' % (
+                parameter.name, node.get_fully_qualified_name(), parameter.name)
+        if not described.dynamic_typing and parameter.type_.value != described.type and \
+                described.type in TYPE_WORDS:
+            return '%s = %r is invalid: must be %s' % (parameter.name, parameter.value,
+                                                      TYPE_WORDS[described.type])
+    return None
+
+
 def parameter_name(node, name):
     """How a fatal line names a parameter: 'time_scale of /robot1/battery_simulator'."""
     return '%s of %s' % (name, node.get_fully_qualified_name())
@@ -89,8 +129,25 @@ def exit_on_startup_error(error, logger=None):
 
 
 def init(args=None):
-    """rclpy.init without rclpy's signal handlers (see the module's docstring)."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    """rclpy.init without rclpy's signal handlers (see the module's docstring). ROS arguments rcl cannot
+    read (``-p config:=``, an empty value) end the process with one line naming the parameter, not rcl's
+    traceback."""
+    arguments = sys.argv if args is None else args
+    for before, argument in zip(arguments, arguments[1:]):   # before rcl, which logs a line of its own
+        if before in ('-p', '--param') and re.fullmatch(r'[^:=]+:=', argument):
+            exit_on_startup_error(StartupError(empty_parameter_refusal(argument[:-2])))
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except RuntimeError as error:   # rclpy's RCLError: rcl cannot read the ROS arguments
+        empty = re.search(r"parameter override rule: '-p ([^:']+):='", str(error))
+        exit_on_startup_error(StartupError(empty_parameter_refusal(empty.group(1)) if empty else
+                                           'the ROS arguments cannot be read: %s' % str(error).split(', at /')[0]))
+
+
+def empty_parameter_refusal(name):
+    """The one line for ``-p name:=`` (rcl reads no empty value)."""
+    return ('parameter %s has no value (-p %s:= with nothing after it): give one (-p %s:=VALUE), or leave it '
+            'out for its default' % (name, name, name))
 
 
 @contextlib.contextmanager
@@ -168,6 +225,24 @@ CLAIMS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Re
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: how long a process listens for the claims of others before it runs its batteries
 CLAIM_WAIT_S = 1.5
+
+
+def claimed_by(node, executor, namespace, timeout_s=1.0):
+    """The battery node(s) of the process whose claim on /battery_claims holds ``namespace`` ('/robot1'), as
+    that claim names them ('/battery_fleet (a fleet host)'), or None within ``timeout_s``."""
+    found = []
+
+    def on_claim(msg):
+        with contextlib.suppress(ValueError, KeyError, TypeError):
+            claim = json.loads(msg.data)
+            if namespace in claim['names']:
+                found.append(str(claim['node']))
+    subscription = node.create_subscription(String, CLAIMS_TOPIC, on_claim, CLAIMS_QOS)
+    deadline = time.monotonic() + timeout_s
+    while not found and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+    node.destroy_subscription(subscription)
+    return found[0] if found else None
 
 
 class BatteryClaim:
