@@ -53,7 +53,10 @@ def test_two_battery_sims_started_together_one_runs(probe, attempt):
     first = NodeProcess('battery_sim', '-r', '__ns:=' + ns, '-p', 'initial_percentage:=80.0')
     second = NodeProcess('battery_sim', '-r', '__ns:=' + ns, '-p', 'initial_percentage:=40.0')
     try:
-        ended = [p for p in (first, second) if p.wait(15.0) is not None]
+        deadline = time.monotonic() + 15.0   # until one of them exits; then the other must stay
+        while time.monotonic() < deadline and all(p.process.poll() is None for p in (first, second)):
+            time.sleep(0.05)
+        ended = [p for p in (first, second) if p.wait(1.0) is not None]
         assert len(ended) == 1, 'exactly one of two battery_sim in %s must exit (%d did):\n%s\n---\n%s' % (
             ns, len(ended), first.output(), second.output())
         loser = ended[0]
@@ -61,8 +64,30 @@ def test_two_battery_sims_started_together_one_runs(probe, attempt):
             'Traceback' not in loser.output(), loser.output()
         survivor = second if loser is first else first
         started(probe, ns, survivor)
+        assert survivor.process.poll() is None, survivor.output()
     finally:
         stop_all(first, second)
+
+
+def test_two_battery_sims_started_after_five_others_find_each_other(probe):
+    """Unicast discovery on 127.0.0.1 reaches the participants whose ids are below the profile's
+    maxInitialPeersRange: with Fast DDS's default, 4, two processes started after the first four of a domain
+    never met (both ran, 15 s)."""
+    others = [NodeProcess('battery_sim', '-r', '__ns:=/crowd%d' % k) for k in range(5)]
+    try:
+        for k, other in enumerate(others):
+            started(probe, '/crowd%d' % k, other)
+        first = NodeProcess('battery_sim', '-r', '__ns:=/late')
+        second = NodeProcess('battery_sim', '-r', '__ns:=/late')
+        deadline = time.monotonic() + 15.0
+        while time.monotonic() < deadline and all(p.process.poll() is None for p in (first, second)):
+            time.sleep(0.05)
+        ended = [p for p in (first, second) if p.wait(1.0) is not None]
+        assert len(ended) == 1, 'two battery_sim in /late beside five others: %d exited:\n%s\n---\n%s' % (
+            len(ended), first.output(), second.output())
+        stop_all(first, second)
+    finally:
+        stop_all(*others)
 
 
 def test_battery_sim_beside_a_fleet_host_serving_its_robot_exits(probe):
