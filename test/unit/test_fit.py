@@ -286,3 +286,32 @@ def test_a_users_file_is_never_written_over(tmp_path, capsys):
     earlier.write_text(WRITTEN_BY + ': battery_fit run.csv -o earlier.yaml\npreset: lg_hg2_cell\n')
     assert output_problem(str(earlier), [log]) is None
     assert output_problem(str(tmp_path / 'new.yaml'), [log]) is None
+
+
+def test_plot_and_output_paths_are_checked_before_the_fit(robot_log, tmp_path, capsys):
+    """A --plot matplotlib cannot write (a format it does not know, one of the logs, the config itself, a
+    directory that does not exist) and an -o in a directory that does not exist are one line and exit 2 before
+    the fit: no traceback, no config written, no file touched."""
+    truth, samples, commands = robot_log
+    log = _write('csv', tmp_path, samples, commands)
+    output = str(tmp_path / 'robot.yaml')
+    cases = ((['--plot', str(tmp_path / 'fit.txt')], ['--plot', 'fit.txt', 'png']),
+             (['--plot', log], ['--plot', 'is one of the logs']),
+             (['--plot', output], ['--plot', 'is the config']),
+             (['--plot', str(tmp_path / 'no_dir' / 'fit.png')], ['--plot', 'no_dir', 'no such directory']),
+             (['--plot', str(tmp_path)], ['--plot', 'is a directory']))
+    before = open(log).read()
+    for extra, words in cases:
+        with pytest.raises(SystemExit) as stop:
+            fit_cli.main([log, '-o', output] + extra)
+        err = capsys.readouterr().err
+        assert stop.value.code == 2, 'exit %r for %s: %r' % (stop.value.code, extra, err)
+        assert 'Traceback' not in err and len(err.strip().splitlines()) == 1, 'one line for %s: %r' % (extra, err)
+        assert all(word in err for word in words), 'the line should say %s: %r' % (words, err)
+        assert not os.path.exists(output), 'no config may be written for %s' % extra
+        assert open(log).read() == before, 'the log must be left as it was'
+    with pytest.raises(SystemExit) as stop:
+        fit_cli.main([log, '-o', str(tmp_path / 'no_dir' / 'robot.yaml')])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and 'no such directory' in err and len(err.strip().splitlines()) == 1, \
+        'an -o in a missing directory: exit %r, %r' % (stop.value.code, err)

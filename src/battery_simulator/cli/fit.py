@@ -76,10 +76,43 @@ def parse_arguments(argv):
         parser.error('argument --chemistry: %r is not a preset (one of %s)' % (args.chemistry, ', '.join(preset_names())))
     if os.path.isdir(args.output):
         parser.error('argument -o: %s is a directory (give a file name for the config)' % args.output)
-    problem = output_problem(args.output, args.logs)
+    problem = output_problem(args.output, args.logs) or _directory_problem(args.output)
     if problem:
         parser.error('argument -o: %s' % problem)
+    if args.plot is not None:
+        problem = plot_problem(args.plot, args.output, args.logs)
+        if problem:
+            parser.error('argument --plot: %s' % problem)
     return args
+
+
+def _directory_problem(path):
+    directory = os.path.dirname(os.path.abspath(path))
+    return None if os.path.isdir(directory) else 'no such directory %s' % directory
+
+
+def plot_problem(path, output, logs):
+    """Why the plot cannot go to ``path`` (checked before the fit, which may take minutes), or None: a
+    directory, a missing directory, one of the logs, the config, a format matplotlib does not write."""
+    if os.path.isdir(path):
+        return '%s is a directory (give a file name for the plot)' % path
+    problem = _directory_problem(path)
+    if problem:
+        return problem
+    if os.path.abspath(path) == os.path.abspath(output):
+        return '%s is the config (-o): give the plot another file name' % path
+    for log in logs:
+        if os.path.exists(path) and os.path.exists(log) and os.path.samefile(path, log):
+            return '%s is one of the logs (give another file name for the plot)' % path
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        return 'needs matplotlib (python3-matplotlib)'
+    formats = FigureCanvasBase.get_supported_filetypes()
+    extension = os.path.splitext(path)[1][1:].lower()
+    if extension and extension not in formats:
+        return '%s: matplotlib writes no .%s (png, or one of %s)' % (path, extension, ', '.join(sorted(formats)))
+    return None
 
 
 
