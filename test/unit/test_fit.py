@@ -318,3 +318,37 @@ def test_plot_and_output_paths_are_checked_before_the_fit(robot_log, tmp_path, c
     err = capsys.readouterr().err
     assert stop.value.code == 2 and 'no such directory' in err and len(err.strip().splitlines()) == 1, \
         'an -o in a missing directory: exit %r, %r' % (stop.value.code, err)
+
+
+def test_ctrl_c_while_plotting_leaves_no_config(robot_log, tmp_path, capsys, monkeypatch):
+    """'interrupted (no config written)' is true at any moment: the config is written last."""
+    truth, samples, commands = robot_log
+    log = _write('csv', tmp_path, samples, commands)
+    output = str(tmp_path / 'robot.yaml')
+
+    def interrupted(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fit_cli, 'plot', interrupted)
+    with pytest.raises(SystemExit) as stop:
+        fit_cli.main([log, '-o', output, '--plot', str(tmp_path / 'fit.png')])
+    err = capsys.readouterr().err
+    assert stop.value.code == 130 and 'interrupted (no config written)' in err, (stop.value.code, err)
+    assert not os.path.exists(output), 'the report said no config was written, yet one was'
+
+
+def test_ctrl_c_while_the_libraries_load_is_one_line(tmp_path):
+    """Ctrl-C in the first half second (numpy loading) ends with exit 130 and no traceback."""
+    code = ('import sys, runpy\n'
+            'class CtrlC:\n'
+            '    def find_spec(self, name, path=None, target=None):\n'
+            '        if name == "numpy":\n'
+            '            raise KeyboardInterrupt\n'
+            'sys.meta_path.insert(0, CtrlC())\n'
+            'sys.argv = ["battery_fit", "run.csv", "-o", "x.yaml"]\n'
+            'runpy.run_module("battery_simulator.cli.fit", run_name="__main__")\n')
+    env = dict(os.environ, PYTHONPATH=os.path.join(os.path.dirname(__file__), '..', '..', 'src'))
+    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, env=env, timeout=60,
+                          cwd=str(tmp_path))
+    assert done.returncode == 130 and 'Traceback' not in done.stderr and len(done.stderr.strip().splitlines()) == 1, \
+        'exit %d, stderr %r' % (done.returncode, done.stderr)

@@ -13,13 +13,17 @@ import os
 import sys
 import time
 
-from battery_simulator.core.fit import FitError
-from battery_simulator.core.fit.config_writer import WRITTEN_BY, config_text, write_config
-from battery_simulator.core.fit.conventions import prepare, split_at_gaps
-from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
-from battery_simulator.core.fit.log_reader import read_log
-from battery_simulator.core.fit.report import figures, report_text, write_profile
-from battery_simulator.core.parameters import MAX_CELLS, ParameterError, preset, preset_names
+try:   # numpy and the model load for half a second: a Ctrl-C then is an interrupt too, not a traceback
+    from battery_simulator.core.fit import FitError
+    from battery_simulator.core.fit.config_writer import WRITTEN_BY, config_text, write_config
+    from battery_simulator.core.fit.conventions import prepare, split_at_gaps
+    from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.fit.report import figures, report_text, write_profile
+    from battery_simulator.core.parameters import MAX_CELLS, ParameterError, preset, preset_names
+except KeyboardInterrupt:
+    sys.stderr.write('\nbattery_fit: interrupted (no config written)\n')
+    sys.exit(130)
 
 PROG = 'battery_fit'
 DEFAULT_CHEMISTRY = 'lg_hg2_cell'
@@ -184,10 +188,10 @@ def run(args, stdout=None, stderr=None):
     profiles = None
     if args.profiles:
         profiles = _write_profiles(args.profiles, logs)
-    write_config(args.output, text)
     if args.plot:
         bar(0.97, 'plotting')
         plot(args.plot, result, numbers)
+    write_config(args.output, text)   # last: interrupted or failed before this, no config is written
     bar(1.0, 'done')
     bar.done()
     stdout.write(report_text(result, numbers, args.output, args.holdout, profiles))
