@@ -337,15 +337,17 @@ def test_ctrl_c_while_plotting_leaves_no_config(robot_log, tmp_path, capsys, mon
     assert not os.path.exists(output), 'the report said no config was written, yet one was'
 
 
-def test_ctrl_c_while_the_libraries_load_is_one_line(tmp_path):
-    """Ctrl-C in the first half second (numpy loading) ends with exit 130 and no traceback."""
+@pytest.mark.parametrize('library, extra', [('numpy', []), ('matplotlib', ['--plot', 'fit.png'])])
+def test_ctrl_c_while_the_libraries_load_is_one_line(library, extra, tmp_path):
+    """Ctrl-C in the first half second (numpy loading; matplotlib for --plot's check) ends with exit 130 and
+    no traceback."""
     code = ('import sys, runpy\n'
             'class CtrlC:\n'
             '    def find_spec(self, name, path=None, target=None):\n'
-            '        if name == "numpy":\n'
+            '        if name == %r:\n'
             '            raise KeyboardInterrupt\n'
             'sys.meta_path.insert(0, CtrlC())\n'
-            'sys.argv = ["battery_fit", "run.csv", "-o", "x.yaml"]\n'
+            'sys.argv = ["battery_fit", "run.csv", "-o", "x.yaml"] + %r\n' % (library, extra) +
             'runpy.run_module("battery_simulator.cli.fit", run_name="__main__")\n')
     env = dict(os.environ, PYTHONPATH=os.path.join(os.path.dirname(__file__), '..', '..', 'src'))
     done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, env=env, timeout=60,

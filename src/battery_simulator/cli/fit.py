@@ -249,8 +249,8 @@ def plot(path, result, numbers):
 
 
 def main(argv=None):
-    args = parse_arguments(argv)
     try:
+        args = parse_arguments(argv)   # (--plot's check loads matplotlib: a Ctrl-C can come then too)
         run(args)
     except FitError as error:
         sys.stderr.write('\n' if sys.stderr.isatty() else '')
