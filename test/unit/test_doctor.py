@@ -113,6 +113,17 @@ def test_a_subscriber_taking_both_velocity_types_matches_either():
     assert problems_of(graph) == []
 
 
+@pytest.mark.parametrize('sent', ['geometry_msgs/TwistStamped', 'geometry_msgs/Twist'])
+def test_a_ros1_subscriber_of_any_type_takes_either(sent):
+    """ROS 1's battery takes cmd_vel as rospy.AnyMsg (its node reports the type '*') and drains under either
+    type: Nav2's TwistStamped reaching it is no mismatch."""
+    graph = Graph(has_qos=False)
+    cmd_vel = graph.topic('/cmd_vel')
+    cmd_vel.publishers.append(Endpoint('/controller_server', sent))
+    cmd_vel.subscribers.append(Endpoint('/BatterySimServer', '*'))
+    assert problems_of(graph) == []
+
+
 def test_reliable_subscriber_and_best_effort_publisher():
     graph = clean_graph()
     graph.topic('/robot1/battery_status').publishers[0] = endpoint('/robot1/battery_state_pub',

@@ -227,6 +227,9 @@ def test_bad_inputs_are_one_line(tmp_path, capsys):
     _refused([str(tmp_path / 'missing.bag')], capsys, tmp_path, ['no such file'])
     _refused([str(tmp_path / 'flat.csv'), '--cells-series', '0'], capsys, tmp_path, ['--cells-series'])
     _refused([str(tmp_path / 'flat.csv'), '--chemistry', 'unobtainium'], capsys, tmp_path, ['--chemistry'])
+    # stamps in nanoseconds (a ROS stamp exported as an integer): no pause to cut at, a log of 55,000 hours
+    _refused([_csv(tmp_path / 'nanoseconds.csv', [(k * 10 ** 9, v, c) for k, v, c in steps])], capsys, tmp_path,
+             ['nanoseconds.csv', 'apart', 'seconds'])
 
 
 @needs_rosbags
@@ -286,3 +289,68 @@ def test_a_users_file_is_never_written_over(tmp_path, capsys):
     earlier.write_text(WRITTEN_BY + ': battery_fit run.csv -o earlier.yaml\npreset: lg_hg2_cell\n')
     assert output_problem(str(earlier), [log]) is None
     assert output_problem(str(tmp_path / 'new.yaml'), [log]) is None
+
+
+def test_plot_and_output_paths_are_checked_before_the_fit(robot_log, tmp_path, capsys):
+    """A --plot matplotlib cannot write (a format it does not know, one of the logs, the config itself, a
+    directory that does not exist) and an -o in a directory that does not exist are one line and exit 2 before
+    the fit: no traceback, no config written, no file touched."""
+    truth, samples, commands = robot_log
+    log = _write('csv', tmp_path, samples, commands)
+    output = str(tmp_path / 'robot.yaml')
+    cases = ((['--plot', str(tmp_path / 'fit.txt')], ['--plot', 'fit.txt', 'png']),
+             (['--plot', log], ['--plot', 'is one of the logs']),
+             (['--plot', output], ['--plot', 'is the config']),
+             (['--plot', str(tmp_path / 'no_dir' / 'fit.png')], ['--plot', 'no_dir', 'no such directory']),
+             (['--plot', str(tmp_path)], ['--plot', 'is a directory']))
+    before = open(log).read()
+    for extra, words in cases:
+        with pytest.raises(SystemExit) as stop:
+            fit_cli.main([log, '-o', output] + extra)
+        err = capsys.readouterr().err
+        assert stop.value.code == 2, 'exit %r for %s: %r' % (stop.value.code, extra, err)
+        assert 'Traceback' not in err and len(err.strip().splitlines()) == 1, 'one line for %s: %r' % (extra, err)
+        assert all(word in err for word in words), 'the line should say %s: %r' % (words, err)
+        assert not os.path.exists(output), 'no config may be written for %s' % extra
+        assert open(log).read() == before, 'the log must be left as it was'
+    with pytest.raises(SystemExit) as stop:
+        fit_cli.main([log, '-o', str(tmp_path / 'no_dir' / 'robot.yaml')])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and 'no such directory' in err and len(err.strip().splitlines()) == 1, \
+        'an -o in a missing directory: exit %r, %r' % (stop.value.code, err)
+
+
+def test_ctrl_c_while_plotting_leaves_no_config(robot_log, tmp_path, capsys, monkeypatch):
+    """'interrupted (no config written)' is true at any moment: the config is written last."""
+    truth, samples, commands = robot_log
+    log = _write('csv', tmp_path, samples, commands)
+    output = str(tmp_path / 'robot.yaml')
+
+    def interrupted(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fit_cli, 'plot', interrupted)
+    with pytest.raises(SystemExit) as stop:
+        fit_cli.main([log, '-o', output, '--plot', str(tmp_path / 'fit.png')])
+    err = capsys.readouterr().err
+    assert stop.value.code == 130 and 'interrupted (no config written)' in err, (stop.value.code, err)
+    assert not os.path.exists(output), 'the report said no config was written, yet one was'
+
+
+@pytest.mark.parametrize('library, extra', [('numpy', []), ('matplotlib', ['--plot', 'fit.png'])])
+def test_ctrl_c_while_the_libraries_load_is_one_line(library, extra, tmp_path):
+    """Ctrl-C in the first half second (numpy loading; matplotlib for --plot's check) ends with exit 130 and
+    no traceback."""
+    code = ('import sys, runpy\n'
+            'class CtrlC:\n'
+            '    def find_spec(self, name, path=None, target=None):\n'
+            '        if name == %r:\n'
+            '            raise KeyboardInterrupt\n'
+            'sys.meta_path.insert(0, CtrlC())\n'
+            'sys.argv = ["battery_fit", "run.csv", "-o", "x.yaml"] + %r\n' % (library, extra) +
+            'runpy.run_module("battery_simulator.cli.fit", run_name="__main__")\n')
+    env = dict(os.environ, PYTHONPATH=os.path.join(os.path.dirname(__file__), '..', '..', 'src'))
+    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, env=env, timeout=60,
+                          cwd=str(tmp_path))
+    assert done.returncode == 130 and 'Traceback' not in done.stderr and len(done.stderr.strip().splitlines()) == 1, \
+        'exit %d, stderr %r' % (done.returncode, done.stderr)

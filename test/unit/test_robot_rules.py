@@ -104,6 +104,7 @@ def test_waypoints_as_pairs_or_a_flat_list(value, pairs):
     (dock_contact.SETTINGS, 'radius', 0.0), (dock_contact.SETTINGS, 'dock_x', 'near'),
     (patrol.SETTINGS, 'speed', 0.0), (patrol.SETTINGS, 'waypoints', [[1.0]]),
     (clock.SETTINGS, 'speed', 20000.0), (clock.SETTINGS, 'tick_hz', 0.0), (clock.SETTINGS, 'wait_for', ['']),
+    (clock.SETTINGS, 'wait_for', ['bad topic!']), (clock.SETTINGS, 'wait_for', ['odom', '2nd/odom']),
     (clock.SETTINGS, 'start', -1.0)])
 def test_bad_settings_are_refused_naming_the_value_and_what_is_allowed(settings, name, value):
     setting = next(s for s in settings if s.name == name)

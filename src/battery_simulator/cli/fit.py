@@ -13,13 +13,17 @@ import os
 import sys
 import time
 
-from battery_simulator.core.fit import FitError
-from battery_simulator.core.fit.config_writer import WRITTEN_BY, config_text, write_config
-from battery_simulator.core.fit.conventions import prepare, split_at_gaps
-from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
-from battery_simulator.core.fit.log_reader import read_log
-from battery_simulator.core.fit.report import figures, report_text, write_profile
-from battery_simulator.core.parameters import MAX_CELLS, ParameterError, preset, preset_names
+try:   # numpy and the model load for half a second: a Ctrl-C then is an interrupt too, not a traceback
+    from battery_simulator.core.fit import FitError
+    from battery_simulator.core.fit.config_writer import WRITTEN_BY, config_text, write_config
+    from battery_simulator.core.fit.conventions import prepare, split_at_gaps
+    from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.fit.report import figures, report_text, write_profile
+    from battery_simulator.core.parameters import MAX_CELLS, ParameterError, preset, preset_names
+except KeyboardInterrupt:
+    sys.stderr.write('\nbattery_fit: interrupted (no config written)\n')
+    sys.exit(130)
 
 PROG = 'battery_fit'
 DEFAULT_CHEMISTRY = 'lg_hg2_cell'
@@ -76,10 +80,43 @@ def parse_arguments(argv):
         parser.error('argument --chemistry: %r is not a preset (one of %s)' % (args.chemistry, ', '.join(preset_names())))
     if os.path.isdir(args.output):
         parser.error('argument -o: %s is a directory (give a file name for the config)' % args.output)
-    problem = output_problem(args.output, args.logs)
+    problem = output_problem(args.output, args.logs) or _directory_problem(args.output)
     if problem:
         parser.error('argument -o: %s' % problem)
+    if args.plot is not None:
+        problem = plot_problem(args.plot, args.output, args.logs)
+        if problem:
+            parser.error('argument --plot: %s' % problem)
     return args
+
+
+def _directory_problem(path):
+    directory = os.path.dirname(os.path.abspath(path))
+    return None if os.path.isdir(directory) else 'no such directory %s' % directory
+
+
+def plot_problem(path, output, logs):
+    """Why the plot cannot go to ``path`` (checked before the fit, which may take minutes), or None: a
+    directory, a missing directory, one of the logs, the config, a format matplotlib does not write."""
+    if os.path.isdir(path):
+        return '%s is a directory (give a file name for the plot)' % path
+    problem = _directory_problem(path)
+    if problem:
+        return problem
+    if os.path.abspath(path) == os.path.abspath(output):
+        return '%s is the config (-o): give the plot another file name' % path
+    for log in logs:
+        if os.path.exists(path) and os.path.exists(log) and os.path.samefile(path, log):
+            return '%s is one of the logs (give another file name for the plot)' % path
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        return 'needs matplotlib (python3-matplotlib)'
+    formats = FigureCanvasBase.get_supported_filetypes()
+    extension = os.path.splitext(path)[1][1:].lower()
+    if extension and extension not in formats:
+        return '%s: matplotlib writes no .%s (png, or one of %s)' % (path, extension, ', '.join(sorted(formats)))
+    return None
 
 
 
@@ -151,10 +188,10 @@ def run(args, stdout=None, stderr=None):
     profiles = None
     if args.profiles:
         profiles = _write_profiles(args.profiles, logs)
-    write_config(args.output, text)
     if args.plot:
         bar(0.97, 'plotting')
         plot(args.plot, result, numbers)
+    write_config(args.output, text)   # last: interrupted or failed before this, no config is written
     bar(1.0, 'done')
     bar.done()
     stdout.write(report_text(result, numbers, args.output, args.holdout, profiles))
@@ -212,8 +249,8 @@ def plot(path, result, numbers):
 
 
 def main(argv=None):
-    args = parse_arguments(argv)
     try:
+        args = parse_arguments(argv)   # (--plot's check loads matplotlib: a Ctrl-C can come then too)
         run(args)
     except FitError as error:
         sys.stderr.write('\n' if sys.stderr.isatty() else '')

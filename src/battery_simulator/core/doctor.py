@@ -22,6 +22,8 @@ BATTERY_TYPE = 'sensor_msgs/BatteryState'
 TWIST = 'geometry_msgs/Twist'
 TWIST_STAMPED = 'geometry_msgs/TwistStamped'
 VELOCITY_TYPES = (TWIST, TWIST_STAMPED)
+#: the type a ROS 1 node reports for a rospy.AnyMsg subscription (the battery's cmd_vel): it takes any type
+ANY_TYPE = '*'
 #: last name parts that make a topic a battery or velocity topic whatever its type
 BATTERY_NAMES = ('battery_status', 'battery_state', 'battery')
 VELOCITY_NAMES = ('cmd_vel',)
@@ -191,7 +193,7 @@ def _type_mismatches(name, topic):
     for publisher in sorted(topic.publishers, key=lambda e: e.node):
         sent = plain_type(publisher.type)
         for node in sorted(taken):
-            if sent in taken[node]:
+            if sent in taken[node] or ANY_TYPE in taken[node]:
                 continue
             found.append('problem: %s: %s publishes %s, %s subscribes %s only (nothing of it arrives): %s'
                          % (name, publisher.node, sent, node, ' and '.join(sorted(taken[node])),

@@ -55,8 +55,13 @@ BATTERY_SETTINGS = (
 _TOPIC_NAME = re.compile(r'^/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
 
 
+def is_topic_name(value):
+    """A topic name both ROS 1 and ROS 2 accept (rclpy raises on one it cannot resolve)."""
+    return isinstance(value, str) and _TOPIC_NAME.match(value) is not None
+
+
 def _topic_or_empty(value):
-    return isinstance(value, str) and (value == '' or _TOPIC_NAME.match(value) is not None)
+    return value == '' or is_topic_name(value)
 
 
 #: battery_state_pub's settings

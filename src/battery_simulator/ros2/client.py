@@ -45,8 +45,9 @@ def main(argv=None):
     from battery_simulator.action import BatterySim
     from battery_simulator.cli.progress import ProgressPrinter
     from battery_simulator.ros2.qos import STATUS_QOS
+    from battery_simulator.ros2.rcl_args import init_rclpy
 
-    rclpy.init(args=['battery_sim_client'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
+    init_rclpy('battery_sim_client', ['battery_sim_client'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node('battery_sim_client')
     client = ActionClient(node, BatterySim, 'battery_simulator')
     printer = ProgressPrinter(sys.stdout)

@@ -46,6 +46,7 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatteryFleetState, BatterySimState
+from battery_simulator.ros2.rcl_args import init_rclpy
 from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
                                             parameter_name)
 from battery_simulator.srv import InjectFault, SetState
@@ -216,7 +217,7 @@ def serve(node, hub):
 
 def main(args=None):
     with ending_quietly():
-        rclpy.init(args=args)
+        init_rclpy('battery_dashboard', args)
         node = None
         try:
             node = BatteryDashboard()

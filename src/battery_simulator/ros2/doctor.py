@@ -111,7 +111,9 @@ def main(argv=None):
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init(args=['battery_doctor'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
+    from battery_simulator.ros2.rcl_args import init_rclpy
+
+    init_rclpy('battery_doctor', ['battery_doctor'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
     code = doctor.EXIT_USAGE
     try:
         node = rclpy.create_node('battery_doctor', start_parameter_services=False)

@@ -57,7 +57,7 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
         raise FitError('%s: every current is NaN (%d samples): the current is needed to fit' % (name, len(i)))
     usable = np.isfinite(t) & np.isfinite(v) & (v > 0) & np.isfinite(i)
     if (~usable).any():
-        notes.append('%d of %d samples without a voltage or current (NaN) left out' % ((~usable).sum(), len(t)))
+        notes.append('%d of %d samples without a stamp, voltage or current (NaN) left out' % ((~usable).sum(), len(t)))
     t, v, i, temp, pct = t[usable], v[usable], i[usable], temp[usable], pct[usable]
     if (np.diff(t) < 0).any():
         notes.append('%d stamps out of order: sorted' % (np.diff(t) < 0).sum())
@@ -71,6 +71,10 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_SPAN_S:
         raise FitError('%s: too short to fit: %d usable samples over %.0f s (at least %d samples over %.0f s)'
                        % (name, len(t), t[-1] - t[0] if len(t) else 0.0, MIN_SAMPLES, MIN_SPAN_S))
+    period = float(np.median(np.diff(t)))
+    if period > GAP_S:   # every sample a pause: stamps in ns or ms (ROS stamps as integers), not a battery log
+        raise FitError('%s: the samples are %.3g s apart (median): the time column must be in seconds '
+                       '(a stamp in nanoseconds is 1e9 times too large)' % (name, period))
     if np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A:
         raise FitError('%s: the current is constant (%.3f A, spread %.3f A): nothing to identify the resistance '
                        'from; record a log with current steps (drive, stop, charge)' % (name, np.mean(i), np.std(i)))
