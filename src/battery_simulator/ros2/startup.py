@@ -18,6 +18,7 @@ import threading
 import time
 
 import rclpy
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.executors import ExternalShutdownException
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -27,6 +28,7 @@ from std_msgs.msg import String
 
 from battery_simulator.core.parameters import number_from_text
 from battery_simulator.core.settings import SettingError, check_setting
+from battery_simulator.ros2.rcl_args import rcl_problem
 
 EXIT_BAD_PARAMETER = 2
 #: after a stop signal, the executor runs this long at most for the goals' results to be sent
@@ -138,10 +140,10 @@ def init(args=None):
             exit_on_startup_error(StartupError(empty_parameter_refusal(argument[:-2])))
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except RuntimeError as error:   # rclpy's RCLError: rcl cannot read the ROS arguments
+    except (RuntimeError, rclpy_implementation.RCLError) as error:   # rcl cannot read the ROS arguments
         empty = re.search(r"parameter override rule: '-p ([^:']+):='", str(error))
         exit_on_startup_error(StartupError(empty_parameter_refusal(empty.group(1)) if empty else
-                                           'the ROS arguments cannot be read: %s' % str(error).split(', at /')[0]))
+                                           'bad --ros-args: %s' % rcl_problem(error)))
 
 
 def empty_parameter_refusal(name):
