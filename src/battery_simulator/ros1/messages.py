@@ -76,8 +76,14 @@ class ReceivedState:
         return self._message
 
 
-def twist_of_any(raw):
-    """The Twist of a cmd_vel received as rospy.AnyMsg, whether its publisher sent Twist or TwistStamped
-    (core/velocity.py); None for another type."""
+def velocity_of_any(raw):
+    """The Twist or TwistStamped message of a velocity command received as rospy.AnyMsg (its connection's
+    type says which); None for another type."""
     message_class = VELOCITY_CLASSES.get(raw._connection_header.get('type'))
-    return None if message_class is None else twist_of(message_class().deserialize(raw._buff))
+    return None if message_class is None else message_class().deserialize(raw._buff)
+
+
+def twist_of_any(raw):
+    """The Twist of a cmd_vel received as rospy.AnyMsg (core/velocity.py); None for another type."""
+    msg = velocity_of_any(raw)
+    return None if msg is None else twist_of(msg)

@@ -6,7 +6,7 @@ import rospy
 from geometry_msgs.msg import Twist, TwistStamped
 
 from battery_simulator.core.velocity import twist_of
-from battery_simulator.ros1.messages import VELOCITY_CLASSES as TYPES
+from battery_simulator.ros1.messages import VELOCITY_CLASSES as TYPES, velocity_of_any
 
 
 class TwistSubscriber:
@@ -17,13 +17,11 @@ class TwistSubscriber:
         self._sub = rospy.Subscriber(topic, rospy.AnyMsg, self._on_message, queue_size=queue_size)
 
     def _on_message(self, raw):
-        kind = raw._connection_header.get('type', '')
-        msg_class = TYPES.get(kind)
-        if msg_class is None:
+        msg = velocity_of_any(raw)
+        if msg is None:
             rospy.logwarn_throttle(10.0, 'ignoring a %s on %s: takes geometry_msgs/Twist or TwistStamped',
-                                   kind, self._sub.resolved_name)
+                                   raw._connection_header.get('type', ''), self._sub.resolved_name)
             return
-        msg = msg_class().deserialize(raw._buff)
         self._callback(twist_of(msg), msg)
 
 
