@@ -38,7 +38,7 @@ from battery_simulator.ros1 import battery_sim_server, state_publisher
 from battery_simulator.ros1.action_server import BatterySimServer
 from battery_simulator.ros1.log import RobotLog
 from battery_simulator.ros1.saved_state import FleetStore
-from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate
+from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate, repeat_at_rate
 from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
 from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, host_share,
                                           is_first, is_fleet_rate, robot_configs, robot_params, robot_specs)
@@ -142,17 +142,14 @@ class FleetHost:
     def _publish_states(self):
         """``~states`` at ``~fleet_rate`` (while subscribed)."""
         with ending_the_node_on_error('the fleet state thread'):
-            rate = rospy.Rate(self._fleet_rate, reset=True)
-            while not rospy.is_shutdown():
-                if self._states_pub.get_num_connections() > 0:
-                    names, batteries = fleet_states(zip(self.names, self.publishers))
-                    msg = BatteryFleetState(names=names, states=batteries)
-                    msg.header.stamp = rospy.Time.now()
-                    self._states_pub.publish(msg)
-                try:
-                    rate.sleep()
-                except rospy.ROSInterruptException:
-                    break
+            repeat_at_rate(self._fleet_rate, self._publish_states_once)
+
+    def _publish_states_once(self):
+        if self._states_pub.get_num_connections() > 0:
+            names, batteries = fleet_states(zip(self.names, self.publishers))
+            msg = BatteryFleetState(names=names, states=batteries)
+            msg.header.stamp = rospy.Time.now()
+            self._states_pub.publish(msg)
 
 
 def main():

@@ -137,16 +137,23 @@ class BatteryStatePublisher:
         return status
 
 
-def publish_at_rate(publishers, rate_hz):
-    """Publish every publisher's battery_status at ``rate_hz`` (ROS time) until shutdown (the main thread)."""
+def repeat_at_rate(rate_hz, action):
+    """``action()`` at ``rate_hz`` (ROS time) until shutdown, in the calling thread."""
     rate = rospy.Rate(rate_hz, reset=True)   # reset: a /clock jump back restarts the rate
     while not rospy.is_shutdown():
-        for publisher in publishers:
-            publisher.publish_once()
+        action()
         try:
             rate.sleep()
         except rospy.ROSInterruptException:
             break
+
+
+def publish_at_rate(publishers, rate_hz):
+    """Publish every publisher's battery_status at ``rate_hz`` (ROS time) until shutdown (the main thread)."""
+    def publish_all():
+        for publisher in publishers:
+            publisher.publish_once()
+    repeat_at_rate(rate_hz, publish_all)
 
 
 def main():
