@@ -8,10 +8,12 @@ ends wrap.
 """
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import pytest
 
-from battery_simulator.core.battery import Battery, published_battery_fields
+from battery_simulator.core.battery import Battery
+from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.core.battery_model import BatteryModel, Mode, Status
 from battery_simulator.core.parameters import ParameterError, default_config_path, from_mapping, load_yaml, preset, \
     preset_names
@@ -166,18 +168,36 @@ def record_of(conventions, mode=Mode.DISCHARGE):
     return battery.update().record
 
 
+class _Log:
+    def __getattr__(self, name):
+        return lambda *args: None
+
+
+def published_battery_fields(record):
+    """What battery_status carries for ``record``, the way the front ends make it: the record's messages
+    (BatteryState in battery_fields, the rest in sim_fields) through battery_state_pub's rules."""
+    message = SimpleNamespace(battery=SimpleNamespace(**record.battery_fields()), **record.sim_fields())
+    state = SimpleNamespace(percentage=record.percentage, power_supply_status=record.power_supply_status,
+                            sensor_dropout=False, message=lambda: message)
+    rules = StatusRules(3.0, 0.2, 0.05, 0.05, _Log(), 'the battery', 'the battery')
+    rules.take(state)
+    published = rules.to_publish()
+    return published, message.battery
+
+
 def test_by_default_battery_status_has_the_packages_conventions():
     record = record_of(None)
-    assert published_battery_fields(record) is record.battery_fields()
+    published, sent = published_battery_fields(record)
+    assert published is sent and vars(published) == record.battery_fields()
     record = record_of({'invert_current_sign': False, 'percentage_scale': 1})
-    assert published_battery_fields(record) == record.battery_fields()
+    assert vars(published_battery_fields(record)[0]) == record.battery_fields()
 
 
 @pytest.mark.parametrize('mode', [Mode.DISCHARGE, Mode.CHARGE])
 def test_an_inverted_current_sign_and_0_100_percentages_on_battery_status_only(mode):
     plain = record_of(None, mode).battery_fields()
     record = record_of({'invert_current_sign': True, 'percentage_scale': 100}, mode)
-    published = published_battery_fields(record)
+    published = vars(published_battery_fields(record)[0])
     assert published['current'] == -plain['current'] != 0.0
     assert published['percentage'] == pytest.approx(100.0 * plain['percentage']) == pytest.approx(80.0, abs=0.1)
     assert {k: v for k, v in published.items() if k not in ('current', 'percentage')} == \
@@ -190,7 +210,7 @@ def test_an_inverted_zero_current_is_zero_not_minus_zero():
     battery = Battery(replace(preset('lg_hg2_3s1p'), conventions={'invert_current_sign': True}),
                       initial_percentage=80.0, clock=Clock())
     battery.follow_mode_value(None)   # unset: the level holds, no current
-    current = published_battery_fields(battery.update().record)['current']
+    current = published_battery_fields(battery.update().record)[0].current
     assert current == 0.0 and math.copysign(1.0, current) == 1.0
 
 

@@ -506,26 +506,11 @@ def fill_fields(msg, fields):
     return msg
 
 
-def published_battery_fields(record):
-    """battery_status's sensor_msgs/BatteryState fields for ``record``: its battery_fields() in the config's
-    ``conventions`` (apply_conventions). The front ends publish these on battery_status; everything else
-    (battery_simulator/state, diagnostics, feedback, low/critical) keeps the package's conventions. The
-    record's own dict is not changed."""
-    fields = record.battery_fields()
-    conventions = record.params.conventions
-    if not conventions:
-        return fields
-    fields = dict(fields)
-    fields['current'], fields['percentage'] = apply_conventions(fields['current'], fields['percentage'],
-                                                                conventions)
-    return fields
-
-
 def apply_conventions(current_a, percentage, conventions):
     """(current, percentage) as a driver with ``conventions`` (the config key) publishes them, for testing a
     consumer's robustness: the opposite current sign (Gazebo's invert_current_sign, firmware that counts
-    charge negative) and 0-100 percentages. None or {} changes nothing. For a front end that has the
-    message and not the record: ``msg.current, msg.percentage = apply_conventions(msg.current, ...)``."""
+    charge negative) and 0-100 percentages. None or {} changes nothing. battery_status only: the record
+    carries them (sim_fields) and core/status_rules.py applies them to what goes out."""
     if not conventions:
         return current_a, percentage
     if conventions.get('invert_current_sign', False):
