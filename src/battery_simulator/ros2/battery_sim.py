@@ -23,7 +23,6 @@ live settings) and ``battery_state_pub`` (``battery_status``, ``battery_low``,
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rcl_interfaces.msg import ParameterDescriptor
@@ -39,18 +38,13 @@ from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServe
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, descriptor, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
-                                            run)
+                                            run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 DIAGNOSTIC_PERIOD_S = 0.5
 #: the battery settings a ROS 2 node reads at start-up (``charging`` is the live mode parameter instead)
 STARTUP_SETTINGS = tuple(s for s in BATTERY_SETTINGS if s.name not in ('charging', 'time_scale'))
 TIME_SCALE = next(s for s in BATTERY_SETTINGS if s.name == 'time_scale')
-
-
-def steady_clock():
-    """Timers on wall time: a paused or jumping /clock must not stop updates and publications."""
-    return Clock(clock_type=ClockType.STEADY_TIME)
 
 
 def read_publisher_settings(node):

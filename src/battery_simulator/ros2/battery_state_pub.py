@@ -22,12 +22,11 @@ from rclpy.node import Node
 from battery_simulator.core.parameters import is_number
 from battery_simulator.msg import BatterySimState
 from battery_simulator.core import topics
-from battery_simulator.ros2.battery_sim import (OneBattery, finish, publish_diagnostics, read_publisher_settings,
-                                                 steady_clock)
+from battery_simulator.ros2.battery_sim import OneBattery, finish, publish_diagnostics, read_publisher_settings
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, claimed_by, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
-                                            run)
+                                            run, steady_clock)
 from battery_simulator.ros2.messages import ReceivedState
 from battery_simulator.ros2.qos import STATUS_QOS
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher

@@ -35,9 +35,7 @@ import functools
 import threading
 import time
 
-import rclpy
 import tornado.ioloop
-from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -48,7 +46,7 @@ from std_srvs.srv import SetBool
 from battery_simulator.msg import BatteryFleetState, BatterySimState
 from battery_simulator.ros2.rcl_args import init_rclpy
 from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
-                                            parameter_name)
+                                            parameter_name, steady_clock)
 from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
                                                 bridge_tornado_logs, chart_library_problem, make_app, server_options,
@@ -95,7 +93,7 @@ class BatteryDashboard(Node):
     def start(self, hub):
         self.hub = hub
         self.scan()
-        self.create_timer(self.settings['scan_period'], self.scan, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.create_timer(self.settings['scan_period'], self.scan, clock=steady_clock())
 
     # -- discovery (the executor's thread)
     def scan(self):

@@ -42,11 +42,11 @@ from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2 import services
 from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
                                                  declare_mode, diagnostics_publisher, make_battery,
-                                                 read_publisher_settings, steady_clock)
+                                                 read_publisher_settings)
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
-                                            run)
+                                            run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 FLEET_STATES = '/battery_fleet/states'

@@ -1,15 +1,10 @@
 """What the rclpy nodes of the robot's loop share: a node's main (declared settings, one fatal line for a bad
-one, a clean end on SIGINT or SIGTERM at any moment) and a steady clock for their wall-time timers."""
-from rclpy.clock import Clock, ClockType
+one, a clean end on SIGINT or SIGTERM at any moment)."""
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error, init,
                                             run)
-
-
-def steady_clock():
-    return Clock(clock_type=ClockType.STEADY_TIME)
 
 
 def read_settings(node, settings, defaults=None):

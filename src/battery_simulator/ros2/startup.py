@@ -18,6 +18,7 @@ import threading
 import time
 
 import rclpy
+from rclpy.clock import Clock, ClockType
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.executors import ExternalShutdownException
@@ -35,6 +36,11 @@ EXIT_BAD_PARAMETER = 2
 FINISH_S = 1.5
 #: ... and this long after they have gone, so that DDS delivers them before the process ends
 LINGER_S = 0.3
+
+
+def steady_clock():
+    """Timers on wall time: a paused or jumping /clock must not stop updates, publications or scans."""
+    return Clock(clock_type=ClockType.STEADY_TIME)
 
 
 class StartupError(ValueError):

@@ -4,7 +4,7 @@ graph), and the gate's output publishing the type it forwards (ros1/twist.py is 
 from geometry_msgs.msg import Twist, TwistStamped
 
 from battery_simulator.core.velocity import twist_of
-from battery_simulator.ros2.robot_node import steady_clock
+from battery_simulator.ros2.startup import steady_clock
 from battery_simulator.ros2.velocity import MESSAGE_CLASSES, TYPE_CHECK_S, VelocityInput
 
 
