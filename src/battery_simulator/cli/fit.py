@@ -14,6 +14,7 @@ import sys
 import time
 
 try:   # numpy and the model load for half a second: a Ctrl-C then is an interrupt too, not a traceback
+    from battery_simulator.core.command_line import OneLineParser
     from battery_simulator.core.fit import FitError
     from battery_simulator.core.fit.config_writer import WRITTEN_BY, config_text, write_config
     from battery_simulator.core.fit.conventions import prepare, split_at_gaps
@@ -32,13 +33,6 @@ CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell'}
 BAR_WIDTH = 30
 #: a fit worse than this (per cell, on the fitted part) is refused: the logs are not what the model is
 MAX_RMSE_PER_CELL_V = 0.2
-
-
-class _OneLineParser(argparse.ArgumentParser):
-    """An error is one line naming the argument (argparse would print the usage block first)."""
-
-    def error(self, message):
-        self.exit(2, '%s: error: %s\n' % (self.prog, message))
 
 
 def _cells(text):
@@ -62,7 +56,7 @@ def _holdout(text):
 
 
 def parse_arguments(argv):
-    parser = _OneLineParser(prog=PROG, description='Fit a battery config to recorded logs of your robot.')
+    parser = OneLineParser(prog=PROG, description='Fit a battery config to recorded logs of your robot.')
     parser.add_argument('logs', nargs='+', metavar='LOG', help='ROS 1 bag, ROS 2 bag (MCAP / sqlite3) or CSV')
     parser.add_argument('-o', '--output', required=True, metavar='CONFIG.yaml', help='the config to write')
     parser.add_argument('--cells-series', type=_cells, help='cells in series (default: from the voltage range)')

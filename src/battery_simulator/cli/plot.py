@@ -22,6 +22,7 @@ import os
 import sys
 from collections import namedtuple
 
+from battery_simulator.core.command_line import OneLineParser
 from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.core.parameters import ParameterError, load_yaml, preset
 
@@ -247,7 +248,7 @@ def _label_strip(figure, strip, marks, scale, reference):
 
 
 def main(argv=None):
-    parser = _OneLineParser(prog='battery_plot.py', description='Plot a battery run into a PNG.')
+    parser = OneLineParser(prog='battery_plot.py', description='Plot a battery run into a PNG.')
     parser.add_argument('input', help='a battery_replay.py output CSV, or a rosbag with a BatteryState topic')
     parser.add_argument('-o', '--output', default='battery.png', help='PNG to write (default battery.png)')
     parser.add_argument('--topic', help='BatteryState topic in the bag (default: the one ending in battery_status)')
@@ -274,13 +275,6 @@ def main(argv=None):
     except (PlotError, ParameterError) as error:
         sys.exit('battery_plot: %s' % error)
     print('wrote %s (%d points, %d marks)' % (args.output, len(run.time), len(run.marks)))
-
-
-class _OneLineParser(argparse.ArgumentParser):
-    """A usage error is one line naming the argument (argparse would print the usage block first)."""
-
-    def error(self, message):
-        self.exit(2, '%s: error: %s\n' % (self.prog, message))
 
 
 def _fraction(text):

@@ -30,6 +30,7 @@ import sys
 from dataclasses import replace
 
 from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.command_line import OneLineParser
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
 from battery_simulator.core.prediction import predict
@@ -132,13 +133,6 @@ def charge(params, charge_current_a, state_of_charge=0.0):
     return rows, result.charge_time_s
 
 
-class _OneLineParser(argparse.ArgumentParser):
-    """An error is one line naming the argument (argparse would print the usage block first)."""
-
-    def error(self, message):
-        self.exit(2, '%s: error: %s\n' % (self.prog, message))
-
-
 def _number(text):
     try:
         return float(text)
@@ -168,7 +162,7 @@ def _step(text):
 
 
 def parse_arguments(argv):
-    parser = _OneLineParser(
+    parser = OneLineParser(
         prog='battery_replay.py',
         description='Replay a CSV load profile through the battery model, or a CC-CV charge (--charge).')
     parser.add_argument('profile', nargs='?', help='CSV with time (s) and current (A) or power (W)')
