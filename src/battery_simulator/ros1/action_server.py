@@ -264,7 +264,13 @@ class BatterySimServer:
     # -- goals (worker thread) ---------------------------------------------------
 
     def _take_goals(self):
-        """Accept a new goal (preempting the active one) or act on a cancel."""
+        """Accept a new goal (preempting the active one) or act on a cancel.
+
+        The preempt flag is read before the new-goal flag: actionlib's goal callback sets ``new_goal``
+        first and ``preempt_request`` second, so a preempt seen here that a new goal caused is always
+        seen with its new goal (read the other way round, a goal arriving between the two reads was
+        taken for a cancel)."""
+        preempt_requested = self._server.is_preempt_requested()
         if self._server.is_new_goal_available():
             self._preempt('a new goal')
             goal = self._server.accept_new_goal()
@@ -278,7 +284,7 @@ class BatterySimServer:
                 self._preempt('cancel')
             else:
                 self._check_goal(snapshot)
-        elif self._goal is not None and self._server.is_preempt_requested():
+        elif self._goal is not None and preempt_requested:
             self._preempt('cancel')
 
     def _check_goal(self, snapshot):
