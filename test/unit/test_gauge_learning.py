@@ -344,3 +344,31 @@ def test_a_gauge_config_without_a_gauge_section_is_named(tmp_path):
     with pytest.raises(ParameterError, match='has no gauge section'):
         with_gauge_config(preset(PACK), path)
     assert with_gauge_config(preset(PACK), '') == preset(PACK)
+
+
+# -- battery_replay's columns -------------------------------------------------------------------------
+
+def test_the_replay_names_each_correction_and_the_learned_capacity():
+    """From 90 %: a 2 h rest (the 5-point start error read away), 1C for 3400 s (to the cut-off), a 2 h rest
+    (84 % passed since the first rest: short of the first update's 90 %), a 1.5 A charge to its end (the
+    capacity, believed 10 % high, learned from the rest at empty), a rest."""
+    from battery_simulator.core.replay import OUTPUT_COLUMNS, replay
+    profile = [(0.0, 'current', 0.0), (7200.0, 'current', -ONE_C), (10600.0, 'current', 0.0),
+               (17800.0, 'current', 1.5), (28600.0, 'current', 0.0), (32200.0, 'current', 0.0)]
+    profile = [row for start, end in zip(profile, profile[1:]) for row in
+               [(t, start[1], start[2]) for t in range(int(start[0]), int(end[0]), 600)]] + [profile[-1]]
+    rows = [dict(zip(OUTPUT_COLUMNS, row)) for row in replay(
+        params(gauge={'capacity_error': 0.1, 'initial_error': 5.0}), profile, state_of_charge=0.9, max_step_s=10.0)]
+    events = [(float(r['time']), r['gauge_event']) for r in rows if r['gauge_event']]
+    named = [name for _, event in events for name in event.split(';')]
+    assert set(named) == {'ocv_rest', 'capacity_learned', 'end_of_charge'}, events
+    first_rest = next(t for t, event in events if 'ocv_rest' in event)
+    assert 1800.0 <= first_rest <= 2400.0, 'read 30 min into the first rest'
+    capacities = [float(r['gauge_full_capacity_ah']) for r in rows]
+    assert capacities[0] == pytest.approx(1.1 * DESIGN_AH, abs=1e-3)
+    assert abs(capacities[-1] / DESIGN_AH - 1.0) <= 0.02, capacities[-1]
+    learned_at = next(t for t, event in events if 'capacity_learned' in event)
+    assert 17800.0 < learned_at <= 28600.0, 'learned at the end of charge (the rest pair passed 84 %: < 90 %)'
+    first_gauge = float(rows[0]['gauge_soc'])
+    assert first_gauge == pytest.approx(0.95, abs=1e-4) and float(rows[0]['soc']) == pytest.approx(0.9)
+    assert float(rows[-1]['gauge_soc']) == 1.0

@@ -43,6 +43,9 @@ LEARNING_DEFAULTS = {
     'lock_zero': True,
     'load_average_s': 20.0,
 }
+#: the corrections a learning gauge names (battery_replay's gauge_event column)
+OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE = 'ocv_rest', 'capacity_learned', 'end_of_charge'
+EVENT_KINDS = (OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE)
 #: the deadband above the sensor's offset when the config gives none, A (a few mA, as gauges ship)
 DEFAULT_DEADBAND_A = 0.005
 

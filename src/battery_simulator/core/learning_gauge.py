@@ -43,11 +43,11 @@ import math
 from collections import namedtuple
 
 from battery_simulator.core.battery_model import _KELVIN, OcvCurve, ResistanceTable
-from battery_simulator.core.gauge import LEARNING_DEFAULTS, CoulombCounter
+from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, EVENT_KINDS, LEARNING_DEFAULTS, OCV_REST,  # noqa: F401
+                                         CoulombCounter)
 
-#: the corrections a learning gauge names (battery_replay's gauge_event column), and the cut-off's
-OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE, CUT_OFF = 'ocv_rest', 'capacity_learned', 'end_of_charge', 'cut_off'
-EVENT_KINDS = (OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE)
+#: the cut-off's correction (not one of EVENT_KINDS: the truth's cut-off, not the gauge's rule)
+CUT_OFF = 'cut_off'
 #: a correction larger than this (percentage points; a capacity change in % of the old value) is logged
 #: and counted
 LOGGED_CORRECTION = 1.0
