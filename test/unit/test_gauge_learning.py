@@ -372,3 +372,23 @@ def test_the_replay_names_each_correction_and_the_learned_capacity():
     first_gauge = float(rows[0]['gauge_soc'])
     assert first_gauge == pytest.approx(0.95, abs=1e-4) and float(rows[0]['soc']) == pytest.approx(0.9)
     assert float(rows[-1]['gauge_soc']) == 1.0
+
+
+# -- predict: what the robot would read at the end --------------------------------------------------
+
+@pytest.mark.parametrize('ambient_c', [25.0, -10.0])
+def test_predict_ends_at_what_the_learning_gauge_would_read(ambient_c):
+    """The plan runs on a copy of the model with its gauge (its belief, its load average, its temperature
+    compensation): end_percentage is what the running battery then reads, to 0.5 points."""
+    from battery_simulator.core.prediction import Segment, predict
+    model = make_model(params(gauge={'capacity_error': 0.05, 'initial_error': 3.0}, ambient_temperature_c=ambient_c,
+                              load_current_a=0.5), 0.9, Mode.DISCHARGE)
+    hold(model, Mode.DISCHARGE, 600.0, dt_s=1.0)
+    before = model.gauge_reading()
+    result = predict(model, [Segment(1800.0, current_a=ONE_C - 0.5)])
+    assert model.gauge_reading() == before, 'predict changes nothing'
+    model.set_extra_load('plan', current_a=ONE_C - 0.5)
+    hold(model, Mode.DISCHARGE, 1800.0, dt_s=1.0)
+    assert result.feasible and result.end_percentage == pytest.approx(shown(model), abs=0.5)
+    to_the_end = predict(model, [Segment(6 * 3600.0, current_a=ONE_C - 0.5)])
+    assert not to_the_end.feasible and to_the_end.end_percentage == 0.0

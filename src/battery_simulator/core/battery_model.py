@@ -26,7 +26,7 @@ import math
 from bisect import bisect_right
 from collections import namedtuple
 
-from battery_simulator.core.gauge import make_gauge
+from battery_simulator.core.gauge_models import make_gauge
 from battery_simulator.core.parameters import BatteryParameters, is_number
 
 _KELVIN = 273.15
@@ -245,7 +245,7 @@ class BatteryModel:
         self.throughput_as = 0.0      # charge through a cell since start, A*s (signed: the gauge counts it)
         self._stuck = None            # (percentage, charge) the gauge_stuck fault holds, or None
         self._update_capacity()
-        self.gauge = make_gauge(params.gauge, self.capacity_ah, self.state_of_charge, params)   # the true capacity at start
+        self.gauge = make_gauge(params.gauge, self.capacity_ah, self.state_of_charge, self)   # true capacity at start
         self._settle_status()
         self.step(0.0)
 

@@ -46,6 +46,9 @@ LEARNING_DEFAULTS = {
 #: the corrections a learning gauge names (battery_replay's gauge_event column)
 OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE = 'ocv_rest', 'capacity_learned', 'end_of_charge'
 EVENT_KINDS = (OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE)
+#: a correction larger than this (percentage points; a capacity change in % of the old value) is logged
+#: once and counted (the diagnostics' Gauge Corrections)
+LOGGED_CORRECTION = 1.0
 #: the deadband above the sensor's offset when the config gives none, A (a few mA, as gauges ship)
 DEFAULT_DEADBAND_A = 0.005
 
@@ -134,14 +137,3 @@ class CoulombCounter:
     @property
     def capacity_ah(self):
         return self.capacity_as / 3600.0
-
-
-def make_gauge(config, true_capacity_ah, true_soc, params=None):
-    """The gauge of a config: None for an ideal one (the truth is shown), a CoulombCounter, or a
-    LearningGauge (core/learning_gauge.py: it needs the pack's ``params``, its own model of the pack)."""
-    if not config or config.get('model', 'ideal') == 'ideal':
-        return None
-    if config.get('model') == 'learning':
-        from battery_simulator.core.learning_gauge import LearningGauge   # it imports the model's tables
-        return LearningGauge(config, true_capacity_ah, true_soc, params)
-    return CoulombCounter(config, true_capacity_ah, true_soc)

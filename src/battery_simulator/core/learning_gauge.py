@@ -42,15 +42,12 @@ than one point and counts them (``Gauge Corrections``).
 import math
 from collections import namedtuple
 
-from battery_simulator.core.battery_model import _KELVIN, OcvCurve, ResistanceTable
-from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, EVENT_KINDS, LEARNING_DEFAULTS, OCV_REST,  # noqa: F401
-                                         CoulombCounter)
+from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, EVENT_KINDS, LEARNING_DEFAULTS,  # noqa: F401
+                                         LOGGED_CORRECTION, OCV_REST, CoulombCounter)
 
+KELVIN = 273.15
 #: the cut-off's correction (not one of EVENT_KINDS: the truth's cut-off, not the gauge's rule)
 CUT_OFF = 'cut_off'
-#: a correction larger than this (percentage points; a capacity change in % of the old value) is logged
-#: and counted
-LOGGED_CORRECTION = 1.0
 #: the percentage a gauge holds until its own end of charge
 HOLD_BEFORE_FULL = 0.99
 
@@ -86,8 +83,11 @@ def ocv_table(params, which):
 class LearningGauge(CoulombCounter):
     """The config's ``gauge: {model: learning, ...}`` (see the module's docstring)."""
 
-    def __init__(self, config, true_capacity_ah, true_soc, params):
+    def __init__(self, config, true_capacity_ah, true_soc, model):
+        """``model``: the pack (core/battery_model.py) whose OCV and resistance tables the gauge takes as
+        its own model of the pack."""
         super().__init__(config, true_capacity_ah, true_soc)
+        params = model.params
         settings = dict(LEARNING_DEFAULTS)
         settings.update({key: config[key] for key in LEARNING_DEFAULTS if key in config})
         self.settings = settings
@@ -101,9 +101,9 @@ class LearningGauge(CoulombCounter):
             else settings['taper_current_factor'] * termination_a
         self.taper_current_min_a = settings['taper_current_min_factor'] * termination_a
         self.taper_voltage_v = (1.0 - settings['taper_voltage_fraction']) * params.cell_charge_voltage_v
-        self.ocv = OcvCurve(params.ocv_soc, ocv_table(params, settings['gauge_ocv']))
-        self._discharge_ocv = OcvCurve(params.ocv_soc, params.ocv_voltage_v)
-        self._resistances = ResistanceTable(params)
+        self.ocv = type(model.ocv)(params.ocv_soc, ocv_table(params, settings['gauge_ocv']))
+        self._discharge_ocv = model.ocv
+        self._resistances = model._resistances
         self.full = self.soc >= 1.0          # the end of charge was seen (100 % may show)
         self.zero_locked = False             # 0 % shown: held until a charge
         self.learned = False                 # the capacity has been updated at least once
@@ -118,7 +118,7 @@ class LearningGauge(CoulombCounter):
         self.average_load_a = 0.0            # the discharge current averaged (a rest or a charge: none)
         self.unusable = 0.0
         self._unusable_for = None            # (load, temperature, soc, capacity) the unusable soc is for
-        self._model = None
+        self._model = model
 
     # -- what the model calls ------------------------------------------------------------------
 
@@ -387,4 +387,4 @@ class LearningGauge(CoulombCounter):
         if not p.arrhenius_temperature_k:
             return 1.0
         return math.exp(p.arrhenius_temperature_k * (
-            1.0 / (temperature_c + _KELVIN) - 1.0 / (p.reference_temperature_c + _KELVIN)))
+            1.0 / (temperature_c + KELVIN) - 1.0 / (p.reference_temperature_c + KELVIN)))

@@ -638,7 +638,8 @@ def gauge_preset_names():
 def gauge_preset(name):
     """The gauge section of the shipped gauge preset ``name`` (a dict; ParameterError naming the known ones)."""
     if not isinstance(name, str) or name not in gauge_preset_names():
-        raise ParameterError('gauge preset = %r is invalid: must be one of %s' % (name, ', '.join(gauge_preset_names())))
+        raise ParameterError('gauge preset = %r is invalid: must be one of %s'
+                             % (name, ', '.join(gauge_preset_names())))
     return gauge_section(preset_directory() / (GAUGE_PRESET_PREFIX + name + '.yaml'))
 
 
