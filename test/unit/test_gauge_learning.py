@@ -203,7 +203,7 @@ def test_a_charge_stopped_half_a_percent_before_its_termination_shows_99_percent
 
 def discharge_from_full(ambient_c, gauge='learning', dt_s=1.0):
     """1C from full at ``ambient_c``: (the charge the model delivered, the charge the gauge reported after
-    120 s plus what was delivered by then, the percentage one step before the cut-off, the charge delivered
+    300 s (its load average settled) plus what was delivered by then, the percentage one step before the cut-off, the charge delivered
     after the gauge first showed 0 %)."""
     model = make_model(params(gauge={'model': gauge}, ambient_temperature_c=ambient_c), 1.0, Mode.DISCHARGE)
     t = delivered = 0.0
@@ -213,7 +213,7 @@ def discharge_from_full(ambient_c, gauge='learning', dt_s=1.0):
         model.step(dt_s)
         t += dt_s
         delivered += -model.current_a * dt_s / 3600.0
-        if t == 120.0:
+        if t == 300.0:
             reported = model.gauge_reading()[1] + delivered
         if zero_at is None and shown(model) <= 0.0:
             zero_at = delivered

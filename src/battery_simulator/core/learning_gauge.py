@@ -60,8 +60,11 @@ MIN_READING_SPAN = 0.05
 #: end of charge learning starts from a rest reading below this state of charge
 LEARN_AT_END_OF_CHARGE_BELOW = 0.10
 #: the remaining capacity is recomputed when the averaged load moved by this fraction, the temperature by
-#: this many K, or the state of charge by this much
+#: this many K, or the state of charge by this much, at most every RECOMPUTE_AFTER_S of battery time (at once
+#: when a load comes or goes, a rest is read or the capacity learned): TI's gauges too update their
+#: remaining capacity now and then, not at every sample
 RECOMPUTE_LOAD, RECOMPUTE_TEMPERATURE_K, RECOMPUTE_SOC = 0.1, 2.0, 0.1
+RECOMPUTE_AFTER_S = 60.0
 #: the forward run's step, state of charge; within NEAR_CUTOFF_V of the cut-off a finer one (measured on
 #: lg_hg2_3s1p at 1C: the -10 degC loss shown is 96 % of the model's with 0.01 throughout, 98 % with 0.0025)
 FORWARD_STEP, FORWARD_STEP_NEAR_CUTOFF, NEAR_CUTOFF_V = 0.01, 0.0025, 0.3
@@ -118,6 +121,8 @@ class LearningGauge(CoulombCounter):
         self.average_load_a = 0.0            # the discharge current averaged (a rest or a charge: none)
         self.unusable = 0.0
         self._unusable_for = None            # (load, temperature, soc, capacity) the unusable soc is for
+        self._since_unusable_s = 0.0         # since it was computed
+        self._average_for = (None, 0.0)      # (dt, the load average's weight of the old value over dt)
         self._model = model
 
     # -- what the model calls ------------------------------------------------------------------
@@ -127,18 +132,25 @@ class LearningGauge(CoulombCounter):
         if dt_s > 0.0:
             measured = self._measure(charge_as, dt_s)
             current = measured / dt_s
-            cell_v = model.voltage_v / self.cells_series
-            temperature_c = model.temperature_c
+            if dt_s != self._average_for[0]:   # steps mostly repeat their length
+                self._average_for = (dt_s, math.exp(-dt_s / self.settings['load_average_s']))
             load_a = -current if current < 0.0 else 0.0
-            self.average_load_a += (load_a - self.average_load_a) * (
-                1.0 - math.exp(-dt_s / self.settings['load_average_s']))
-            if current > 0.0 and self.zero_locked:
-                self.zero_locked = False    # a charge releases 0 %
-            self._watch_taper(current, cell_v, dt_s)
-            self._watch_rest(current, cell_v, dt_s, temperature_c)
-            self._last_cell_v = cell_v
-            self._refresh_unusable(temperature_c)
-            if not self.zero_locked and self.settings['lock_zero'] and current < 0.0 and self.soc <= self.unusable:
+            self.average_load_a = load_a + (self.average_load_a - load_a) * self._average_for[1]
+            self._since_unusable_s += dt_s
+            if current <= -self.relax_current_a:   # a discharge: no rest, no taper (the cheap way)
+                self._rest_s, self._since_reading_s, self._taper_s, self._last_cell_v = 0.0, None, 0.0, None
+            else:
+                cell_v = model.voltage_v / self.cells_series
+                if current > 0.0 and self.zero_locked:
+                    self.zero_locked = False    # a charge releases 0 %
+                self._watch_taper(current, cell_v, dt_s)
+                self._watch_rest(current, cell_v, dt_s, model.temperature_c)
+                self._last_cell_v = cell_v
+            last = self._unusable_for
+            if last is None or self._since_unusable_s >= RECOMPUTE_AFTER_S \
+                    or (self.average_load_a >= self.relax_current_a) != (last[0] > 0.0):
+                self._refresh_unusable(model.temperature_c)
+            if current < 0.0 and not self.zero_locked and self.soc <= self.unusable and self.settings['lock_zero']:
                 self.zero_locked = True
         elif self._unusable_for is None:
             self._refresh_unusable(model.temperature_c)
@@ -320,11 +332,14 @@ class LearningGauge(CoulombCounter):
         if load_a < self.relax_current_a:
             load_a = 0.0    # at rest (or charging): the open-circuit voltage's end
         last = self._unusable_for
+        if last is not None and (load_a == 0.0) != (last[0] == 0.0):
+            last = None   # a load came or went: at once
         if last is not None and abs(load_a - last[0]) <= RECOMPUTE_LOAD * last[0] \
                 and abs(temperature_c - last[1]) <= RECOMPUTE_TEMPERATURE_K and abs(soc - last[2]) <= RECOMPUTE_SOC \
                 and capacity_as == last[3]:
             return
         self._unusable_for = (load_a, temperature_c, soc, capacity_as)
+        self._since_unusable_s = 0.0
         self.unusable = self.unusable_soc(load_a, temperature_c, soc)
 
     def unusable_soc(self, load_a, temperature_c, soc):
