@@ -9,9 +9,9 @@ pack's capacity) lives ``--days`` simulated days three times, once with each gau
 reads the truth), ``counter`` (a coulomb counter with those errors, recalibrating at full and empty) and
 ``learning`` (Part 9's learning gauge with the same errors). The day is the same for the three (one random
 stream per pack): the robot patrols at a load drawn every 10 min (0.8-2.2 A), waits for a task now and then
-(45-90 min at 0.05 A, below the gauges' C/20 rest current), heads for the dock when the percentage it reads
-falls below ``--dock-at`` (5 min of driving at 2 A), charges until the charger ends, and rests 40 min on the
-dock. A pack that cuts off on the way has not reached the dock: it is carried there (charged from where it
+(45-90 min asleep at 0.02 A: a rest to a gauge, below C/20 and settled), heads for the dock when the
+percentage it reads falls below ``--dock-at`` (5 min of driving at 2 A), charges until the charger ends, and
+rests 40 min on the dock. A pack that cuts off on the way has not reached the dock: it is carried there (charged from where it
 stopped).
 
 Printed per gauge: how often the dock was reached, the lowest true level at the dock, and the charge wasted
@@ -37,7 +37,7 @@ DRIVE_TO_DOCK_S, DRIVE_TO_DOCK_A = 300.0, 2.0
 REST_ON_DOCK_S = 2400.0
 SEGMENT_S = 600.0
 PATROL_A = (0.8, 2.2)
-WAIT_A, WAIT_S, WAIT_CHANCE = 0.05, (2700.0, 5400.0), 0.08
+WAIT_A, WAIT_S, WAIT_CHANCE = 0.02, (2700.0, 5400.0), 0.08
 
 
 def pack_draw(seed):
