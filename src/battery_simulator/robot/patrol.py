@@ -130,7 +130,7 @@ class Patrol:
                 return 0.0, 0.0   # on the dock: stand still until the contact closes
             return drive_to(x, y, yaw, self.dock[0], self.dock[1], self.speed, step_s)
         if self.phase == CHARGING:
-            if goal_outcome == GOAL_SUCCEEDED:
+            if goal_outcome == GOAL_SUCCEEDED and self.rested_s is None:   # told again at every step: once
                 self.rested_s = 0.0
             elif goal_outcome == GOAL_FAILED:
                 self._send_charge_goal()
