@@ -42,8 +42,8 @@ than one point and counts them (``Gauge Corrections``).
 import math
 from collections import namedtuple
 
-from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, EVENT_KINDS, LEARNING_DEFAULTS,  # noqa: F401
-                                         LOGGED_CORRECTION, OCV_REST, CoulombCounter)
+from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, LEARNING_DEFAULTS, LOGGED_CORRECTION,
+                                         OCV_REST, CoulombCounter)
 
 KELVIN = 273.15
 #: the cut-off's correction (not one of EVENT_KINDS: the truth's cut-off, not the gauge's rule)
