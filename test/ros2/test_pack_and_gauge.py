@@ -148,3 +148,11 @@ def test_a_bad_gauge_config_is_one_line_and_exit_2(tmp_path):
     assert process.wait(30.0) == 2, process.output()
     assert 'gauge_config' in process.output() and 'has no gauge section' in process.output()
     assert 'Traceback' not in process.output()
+
+
+def test_the_demo_takes_the_learning_gauges():
+    """battery_demo -p gauge:=...: a value it does not know is one line naming the four (exit 2)."""
+    process = NodeProcess('battery_demo', '-r', '__ns:=/demo_gauge', '-p', 'gauge:=bq99')
+    assert process.wait(30.0) == 2, process.output()
+    assert 'ideal, realistic, impedance_track or modelgauge' in process.output(), process.output()
+    assert 'Traceback' not in process.output()
