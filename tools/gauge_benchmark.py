@@ -34,6 +34,7 @@ GAUGES = {'ideal': {'model': 'ideal'},
 STEP_S = 2.2
 STEPS = 40_000     # about a discharge and a charge at 1.5 A with 2.2 s steps, twice
 REPEATS = 5
+FLEET_REPEATS = 3
 #: fleet rounds of 22 s of battery time before the measured ones (a running fleet's steady state, past
 #: every gauge's first look at its load)
 WARM_UP_ROUNDS = 10
@@ -84,9 +85,9 @@ def fleet_ms(gauge, size, rounds):
     return (time.perf_counter() - start) / rounds * 1e3
 
 
-def medians(measure, *args):
+def medians(measure, *args, repeats=REPEATS):
     runs = {gauge: [] for gauge in GAUGES}
-    for _ in range(REPEATS):
+    for _ in range(repeats):
         for gauge in GAUGES:   # interleaved: the machine's load falls on all three alike
             runs[gauge].append(measure(gauge, *args))
     return {gauge: statistics.median(values) for gauge, values in runs.items()}
@@ -95,7 +96,7 @@ def medians(measure, *args):
 def main(argv=None):
     parser = argparse.ArgumentParser(prog='gauge_benchmark.py', description=__doc__.splitlines()[0])
     parser.add_argument('--fleet', type=int, default=1000, help='batteries in the fleet (default 1000)')
-    parser.add_argument('--rounds', type=int, default=30, help='fleet rounds per run (default 30)')
+    parser.add_argument('--rounds', type=int, default=60, help='fleet rounds per run (default 60: 132 s of battery)')
     args = parser.parse_args(argv)
     steps = medians(step_us)
     print('One step of lg_hg2_3s1p at 2.2 s (10 Hz, time_scale 22), discharges and charges, median of %d:'
@@ -104,8 +105,9 @@ def main(argv=None):
         print('  %-9s %6.2f us   %.2fx the counter' % (gauge, us, us / steps['counter']))
     print('  target: learning <= 1.3x the counter: %s' % ('met' if steps['learning'] <= 1.3 * steps['counter']
                                                          else 'NOT met'))
-    fleets = medians(fleet_ms, args.fleet, args.rounds)
-    print('A fleet of %d (Battery.update each, one round), median of %d:' % (args.fleet, REPEATS))
+    fleets = medians(fleet_ms, args.fleet, args.rounds, repeats=FLEET_REPEATS)
+    print('A fleet of %d (Battery.update each, one round of %d after %d rounds of 22 s), median of %d:'
+          % (args.fleet, args.rounds, WARM_UP_ROUNDS, FLEET_REPEATS))
     for gauge, ms in fleets.items():
         print('  %-9s %7.1f ms   %.3fx the counter, %.3fx ideal' % (gauge, ms, ms / fleets['counter'],
                                                                    ms / fleets['ideal']))
