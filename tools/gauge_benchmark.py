@@ -10,8 +10,8 @@
 2. A fleet of ``--fleet`` batteries (core/battery.py's Battery.update, what both fleet hosts call for each
    robot at each tick) with the learning gauge beside the same fleet without it (a coulomb counter, and
    ideal). Target: within 10 % of the fleet without it.
-Each figure is the median of REPEATS runs, the runs of the three gauges interleaved, so a machine's load
-weighs on them alike.
+Each figure is the CPU time of this process (time.process_time: on a machine shared with other work, wall
+time measures the others too), the median of the runs, the runs of the three gauges interleaved.
 """
 import argparse
 import importlib.util
@@ -48,7 +48,7 @@ def step_us(gauge, steps=STEPS):
     """Microseconds per model step over discharges to the cut-off and charges to Full, alternating."""
     model = make_model(params(gauge), 1.0, Mode.DISCHARGE)
     step = model.step
-    start = time.perf_counter()
+    start = time.process_time()
     for _ in range(steps):
         step(STEP_S)
         status = model.status
@@ -56,7 +56,7 @@ def step_us(gauge, steps=STEPS):
             model.set_mode(Mode.CHARGE)
         elif status is Status.FULL:
             model.set_mode(Mode.DISCHARGE)
-    return (time.perf_counter() - start) / steps * 1e6
+    return (time.process_time() - start) / steps * 1e6
 
 
 class Clock:
@@ -77,12 +77,12 @@ def fleet_ms(gauge, size, rounds):
         clock.now += 1.0
         for battery in fleet:
             battery.update()
-    start = time.perf_counter()
+    start = time.process_time()
     for _ in range(rounds):
         clock.now += 0.1
         for battery in fleet:
             battery.update()
-    return (time.perf_counter() - start) / rounds * 1e3
+    return (time.process_time() - start) / rounds * 1e3
 
 
 def medians(measure, *args, repeats=REPEATS):

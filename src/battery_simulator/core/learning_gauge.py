@@ -162,9 +162,9 @@ class LearningGauge(CoulombCounter):
 
     def reading(self):
         """(percentage, remaining capacity Ah, full charge capacity Ah): see the module's docstring."""
-        capacity_ah = self.capacity_as / 3600.0
-        full_ah = capacity_ah * (1.0 - self.unusable)
-        return 100.0 * self.fraction, self.fraction * full_ah, full_ah
+        full_ah = self.capacity_as / 3600.0 * (1.0 - self.unusable)
+        fraction = self.fraction
+        return 100.0 * fraction, fraction * full_ah, full_ah
 
     @property
     def fraction(self):
