@@ -104,6 +104,7 @@ class LearningGauge(CoulombCounter):
         self.taper_current_a = settings['taper_current_a'] if settings['taper_current_a'] is not None \
             else settings['taper_current_factor'] * termination_a
         self.taper_current_min_a = settings['taper_current_min_factor'] * termination_a
+        self._busy_charge_a = max(self.taper_current_a, self.relax_current_a)   # above it: no rest, no taper
         self.taper_voltage_v = (1.0 - settings['taper_voltage_fraction']) * params.cell_charge_voltage_v
         self.ocv = type(model.ocv)(params.ocv_soc, ocv_table(params, settings['gauge_ocv']))
         self._discharge_ocv = model.ocv
@@ -138,12 +139,13 @@ class LearningGauge(CoulombCounter):
             load_a = -current if current < 0.0 else 0.0
             self.average_load_a = load_a + (self.average_load_a - load_a) * self._average_for[1]
             self._since_unusable_s += dt_s
-            if current <= -self.relax_current_a:   # a discharge: no rest, no taper (the cheap way)
+            if current > 0.0 and self.zero_locked:
+                self.zero_locked = False    # a charge releases 0 %
+            if current <= -self.relax_current_a or current >= self._busy_charge_a:
+                # a discharge, or a charge above the taper: no rest, no taper (the cheap way)
                 self._rest_s, self._since_reading_s, self._taper_s, self._last_cell_v = 0.0, None, 0.0, None
             else:
                 cell_v = model.voltage_v / self.cells_series
-                if current > 0.0 and self.zero_locked:
-                    self.zero_locked = False    # a charge releases 0 %
                 self._watch_taper(current, cell_v, dt_s)
                 self._watch_rest(current, cell_v, dt_s, model.temperature_c)
                 self._last_cell_v = cell_v
