@@ -112,7 +112,7 @@ class CoulombCounter:
 
     def take_events(self):
         """The corrections since the last call (a coulomb counter names none): [GaugeEvent]."""
-        return []
+        return ()
 
     def on_full(self):
         if self.recalibrate_at_full:

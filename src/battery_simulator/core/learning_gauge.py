@@ -203,6 +203,8 @@ class LearningGauge(CoulombCounter):
         self._at_cut_off()
 
     def take_events(self):
+        if not self._events:
+            return ()
         events, self._events = self._events, []
         return events
 
