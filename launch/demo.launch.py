@@ -20,7 +20,9 @@ ARGUMENTS = (
     ('speed', '60', 'The whole demo runs on sim_clock this many times as fast as wall time.'),
     ('tick_hz', '250', 'sim_clock ticks per wall second (every node handles each tick).'),
     ('initial_percentage', '40', 'Battery level at start, %.'),
-    ('gauge', 'ideal', 'ideal: the robot reads the truth; realistic: config/battery_realistic.yaml.'),
+    ('gauge', 'ideal', 'ideal: the robot reads the truth; realistic: config/battery_realistic.yaml; impedance_track, '
+     'modelgauge: a learning gauge (config/battery_impedance_track.yaml, battery_modelgauge.yaml) and the robot rests '
+     'on the dock once full.'),
     ('config', '', 'Battery parameters (empty: by gauge).'),
     ('rate', '2.0', 'battery_status rate, Hz.'),
     ('low_percentage', '0.25', 'The robot heads for the dock below this fraction.'),
@@ -35,14 +37,17 @@ CLOCK_WAIT_FOR = 'battery_simulator/state,battery_status,battery_low,odom,charge
 
 
 def config_path(values):
+    """The battery config: the config argument, or the gauge's (robot/demo_gauges.py)."""
     if values['config']:
         return values['config']
     from ament_index_python.packages import get_package_share_directory
-    name = 'battery_realistic.yaml' if values['gauge'] == 'realistic' else 'battery.yaml'
-    return os.path.join(get_package_share_directory('battery_simulator'), 'config', name)
+    from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS
+    return os.path.join(get_package_share_directory('battery_simulator'), 'config',
+                        GAUGE_CONFIGS.get(values['gauge'], 'battery.yaml'))
 
 
 def _actions(context):
+    from battery_simulator.robot.demo_gauges import rest_on_dock_s
     values = context.launch_configurations
     ns = values['namespace']
     actions = [IncludeLaunchDescription(PythonLaunchDescriptionSource(os.path.join(HERE, 'sim.launch.py')),
@@ -67,7 +72,8 @@ def _actions(context):
              namespace=ns, output='screen', parameters=[{**dock, **use_sim_time}]),
         Node(package='battery_simulator', executable='patrol_and_dock', name='patrol_and_dock', namespace=ns,
              output='screen', remappings=[('cmd_vel', 'cmd_vel_nav')],
-             parameters=[{'speed': float(values['robot_speed']), **dock, **use_sim_time}]),
+             parameters=[{'speed': float(values['robot_speed']), **dock, **use_sim_time,
+                          'rest_on_dock': rest_on_dock_s(values['gauge'])}]),
     ]
     return actions
 

@@ -16,6 +16,8 @@ ARGUMENTS = (
     ('charging', 'false', 'Initial mode: true charges, false discharges.'),
     ('rate', '1.0', 'battery_status publication rate, Hz.'),
     ('config', '', 'YAML file of battery parameters (empty: the package config/battery.yaml).'),
+    ('gauge_config', '', "A YAML file whose gauge section replaces the config's: a gauge preset "
+     '(config/presets/gauge_impedance_track.yaml, gauge_modelgauge.yaml) with any pack. Empty: the config\'s.'),
     ('update_rate', '10', 'Model updates (and action feedback) per second, Hz.'),
     ('state_file', '', 'Optional JSON file the state is saved to and resumed from.'),
     ('low_percentage', '0.20', 'battery_low turns true below this fraction.'),
@@ -47,6 +49,8 @@ def sim_nodes(values):
         'use_sim_time': sim_time}
     if values['config']:
         battery['config'] = values['config']
+    if values['gauge_config']:
+        battery['gauge_config'] = values['gauge_config']
     # respawn: a crashed battery comes back; with state_file it resumes from it
     nodes.append(Node(package='battery_simulator', executable='battery_sim', namespace=values['namespace'],
                       output='screen', respawn=True, respawn_delay=1.0, parameters=[battery]))

@@ -23,7 +23,8 @@ MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN = float('nan')
 KEYS = ['Voltage (V)', 'Current (A)', 'Charge (Ah)', 'Capacity (Ah)', 'Design Capacity (Ah)', 'Percentage (%)',
         'Temperature (C)', 'Charging State', 'Health', 'Cycle Count', 'State of Health (%)', 'Time Remaining (min)',
-        'Cell Voltage Min (V)', 'Cell Voltage Max (V)', 'Cell Imbalance (mV)']   # Part 5's three
+        'Cell Voltage Min (V)', 'Cell Voltage Max (V)', 'Cell Imbalance (mV)',   # Part 5's three
+        'Gauge Corrections', 'Gauge Full Capacity (Ah)', 'Gauge Learned']        # Part 9's three
 DEFAULTS = {'load_current_a': 1.5, 'time_scale': 10.0, 'load_power_w': 0.0, 'charge_current_a': 1.5,
             'ambient_temperature_c': 25.0, 'drive_power_w_per_mps': 50.0, 'turn_power_w_per_radps': 4.0}
 SIGMA_V, SIGMA_A = 0.02, 0.05   # the default preset's voltage_noise_v, current_noise_a

@@ -131,3 +131,22 @@ def test_the_plot_draws_cells_cut_off_and_the_levels(tmp_path):
         result = run_plot(csv_path, '-o', tmp_path / 'x.png', *args)
         assert result.returncode != 0 and named in result.stderr and len(result.stderr.strip().splitlines()) == 1, \
             result.stderr
+
+
+def test_a_learning_gauges_corrections_are_drawn(tmp_path):
+    """Issue 43 item 4: a replay's gauge_event and gauge_full_capacity_ah: each correction where the gauge was
+    after it, the learned capacity's value, the 99 % hold shaded."""
+    csv_path = tmp_path / 'day.csv'
+    csv_path.write_text('time,voltage,current,soc,temperature,status,cell_voltage_min,cell_voltage_max,gauge_soc,'
+                        'gauge_full_capacity_ah,gauge_event\n'
+                        '0,11.5,0,0.50,25.0,NOT_CHARGING,3.74,3.74,0.55,3.0590,\n'
+                        '1800,11.5,0,0.50,25.0,NOT_CHARGING,3.74,3.74,0.494,3.0590,ocv_rest\n'
+                        '3600,12.5,0.2,0.98,25.0,CHARGING,4.2,4.2,0.99,3.0590,\n'
+                        '3700,12.5,0.2,0.985,25.0,CHARGING,4.2,4.2,0.99,3.0590,\n'
+                        '3800,12.6,0,1.0,25.0,FULL,4.2,4.2,1.0,2.7900,capacity_learned;end_of_charge\n')
+    run = plot.read_replay_csv(csv_path)
+    assert run.gauge_events == [(1800.0, 'ocv_rest'), (3800.0, 'capacity_learned'), (3800.0, 'end_of_charge')]
+    assert run.gauge_capacity[-1] == pytest.approx(2.79)
+    result = run_plot(csv_path, '-o', tmp_path / 'day.png')
+    assert result.returncode == 0, result.stderr
+    assert is_png(tmp_path / 'day.png')

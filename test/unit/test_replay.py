@@ -198,8 +198,8 @@ def test_list_presets_needs_no_profile():
 
 
 @pytest.mark.parametrize('soc, first_row', [
-    ('0', ['0', '2.8000', '0.0000', '0.00000', '25.00', 'NOT_CHARGING', '2.8000', '2.8000', '0.00000']),
-    ('1', ['0', '4.2000', '0.0000', '1.00000', '25.00', 'NOT_CHARGING', '4.2000', '4.2000', '1.00000']),
+    ('0', ['0', '2.8000', '0.0000', '0.00000', '25.00', 'NOT_CHARGING', '2.8000', '2.8000', '0.00000', '2.7810', '']),
+    ('1', ['0', '4.2000', '0.0000', '1.00000', '25.00', 'NOT_CHARGING', '4.2000', '4.2000', '1.00000', '2.7810', '']),
 ])
 def test_soc_bounds_are_allowed_and_the_pack_starts_at_rest(tmp_path, soc, first_row):
     config = tmp_path / 'cell.yaml'
@@ -229,7 +229,7 @@ def test_output_file_has_unix_line_ends(tmp_path):
     out = tmp_path / 'out.csv'
     assert run_cli(profile_file(tmp_path), '-o', out).returncode == 0
     assert out.read_bytes().startswith(b'time,voltage,current,soc,temperature,status,cell_voltage_min,'
-                                       b'cell_voltage_max,gauge_soc\n0,')
+                                       b'cell_voltage_max,gauge_soc,gauge_full_capacity_ah,gauge_event\n0,')
     assert b'\r' not in out.read_bytes()
 
 

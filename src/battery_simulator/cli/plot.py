@@ -9,7 +9,10 @@ battery_critical events: from the bag's own topics when it recorded them, else
 where what the robot read (the fuel gauge: battery_status's percentage, a
 replay's gauge_soc) crosses ``--low`` / ``--critical`` (the publisher's
 defaults 0.20 / 0.05), drawn as labelled lines on the charge plot; a bag's
-``.../phase`` topic (patrol_and_dock's) is marked too. The truth is drawn
+``.../phase`` topic (patrol_and_dock's) is marked too. A replay's learning
+gauge (Part 9) has its corrections drawn on the gauge's line (rest read,
+capacity learned with its new value, end of charge) and the stretches it
+held at 99 % shaded. The truth is drawn
 beside the gauge when it differs (a replay's soc, a bag's
 battery_simulator/state true_percentage), the series groups' cell voltages
 as a min-max band, and with ``--config`` / ``--preset`` the cell cut-off and
@@ -27,11 +30,16 @@ from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.core.parameters import ParameterError, load_yaml, preset
 
 #: one run: times (s from the start) and the four series, plus [(t, label)] marks
-Run = namedtuple('Run', 'title time voltage current percentage temperature marks gauge cells truth',
-                 defaults=(None, None, None))
+Run = namedtuple('Run', 'title time voltage current percentage temperature marks gauge cells truth gauge_events '
+                 'gauge_capacity', defaults=(None, None, None, None, None))
 # percentage: a replay's soc (the truth) or a bag's battery_status (what the robot read); gauge: a replay's
 # gauge_soc (%), on ``time``; cells: (min, max) cell voltages on ``time``; truth: a bag's
-# battery_simulator/state ([times], [true_percentage]) on its own times
+# battery_simulator/state ([times], [true_percentage]) on its own times; gauge_events: a replay's learning gauge's
+# corrections [(t, kind)] (ocv_rest, capacity_learned, end_of_charge); gauge_capacity: its gauge_full_capacity_ah
+#: how each of a learning gauge's corrections is drawn on the charge plot: (marker, colour, legend text)
+GAUGE_EVENT_STYLE = {'ocv_rest': ('v', 'tab:blue', 'rest read (OCV)'),
+                     'capacity_learned': ('*', 'tab:red', 'capacity learned'),
+                     'end_of_charge': ('s', 'black', 'end of charge (99 % -> 100 %)')}
 #: marks closer than this fraction of the run share one label ("FULL, UNDOCK": the same moment)
 SAME_MOMENT = 0.002
 SUPPLY_STATUS = {0: 'UNKNOWN', 1: 'CHARGING', 2: 'DISCHARGING', 3: 'NOT_CHARGING', 4: 'FULL'}
@@ -83,17 +91,21 @@ def read_replay_csv(path, low=LOW, critical=CRITICAL):
         raise PlotError('%s: a value is not a number (%s)' % (path, error)) from None
     start = time[0]
     time = [t - start for t in time]
-    gauge = cells = None
+    gauge = cells = events = capacity = None
     try:
         if 'gauge_soc' in rows[0]:   # Part 5's columns (a CSV of an older replay has none)
             gauge = [100.0 * float(r['gauge_soc']) for r in rows]
             cells = ([float(r['cell_voltage_min']) for r in rows], [float(r['cell_voltage_max']) for r in rows])
+        if 'gauge_event' in rows[0]:   # Part 9's
+            events = [(t, kind) for t, r in zip(time, rows) for kind in (r['gauge_event'] or '').split(';')
+                      if kind in GAUGE_EVENT_STYLE]
+            capacity = [float(r['gauge_full_capacity_ah']) for r in rows]
     except (TypeError, ValueError, KeyError) as error:
         raise PlotError('%s: a value is not a number (%s)' % (path, error)) from None
     read = [g / 100.0 for g in gauge] if gauge is not None else soc   # low/critical: what the robot read
     marks = status_marks(time, [r['status'] for r in rows]) + level_marks(time, read, low, critical)
     return Run(str(path), time, percentage=[100.0 * s for s in soc], marks=sorted(marks), gauge=gauge, cells=cells,
-               **series)
+               gauge_events=events or None, gauge_capacity=capacity, **series)
 
 
 def read_rosbag(path, topic=None, low=LOW, critical=CRITICAL):
@@ -185,6 +197,8 @@ def plot(run, output, low=LOW, critical=CRITICAL, cell_limits=None):
         charge.plot(time, run.gauge, color='tab:purple', linewidth=1.0, linestyle='--', label='fuel gauge (read)')
         charge.lines[0].set_label('true charge')
         charge.legend(loc='lower left', fontsize=8)
+    if run.gauge_events and run.gauge is not None:
+        _draw_gauge_events(charge, run, scale)
     elif run.truth is not None:   # a bag: battery_status is the gauge, battery_simulator/state the truth
         read = charge.lines[0]
         read.set(label='what the robot read (battery_status)', linestyle='--', color='tab:purple')
@@ -218,6 +232,33 @@ def plot(run, output, low=LOW, critical=CRITICAL, cell_limits=None):
         raise PlotError('cannot write %s: %s' % (output, error.strerror)) from None
     finally:
         pyplot.close(figure)
+
+
+def _draw_gauge_events(charge, run, scale):
+    """A learning gauge's corrections on the charge plot, each where the gauge was after it (a rest read, a
+    learned capacity with its new value, the end of charge), and the stretches it held at 99 % shaded."""
+    at = {t: index for index, t in enumerate(run.time)}
+    for kind, (marker, colour, text) in GAUGE_EVENT_STYLE.items():
+        times = [t for t, k in run.gauge_events if k == kind]
+        if not times:
+            continue
+        charge.scatter([t * scale for t in times], [run.gauge[at[t]] for t in times], marker=marker, color=colour,
+                       s=60 if marker == '*' else 22, zorder=5, label=text)
+        if kind == 'capacity_learned' and run.gauge_capacity is not None:
+            for t in times:
+                charge.annotate('%.3f Ah' % run.gauge_capacity[at[t]], xy=(t * scale, run.gauge[at[t]]),
+                                xytext=(4, -10), textcoords='offset points', fontsize=7, color=colour)
+    start, shaded = None, False
+    for index, holding in enumerate([abs(g - 99.0) < 0.01 for g in run.gauge] + [False]):
+        if holding and start is None:
+            start = index
+        elif not holding and start is not None:
+            if index - start > 1:
+                charge.axvspan(run.time[start] * scale, run.time[index - 1] * scale, color='gold', alpha=0.35,
+                               linewidth=0, label=None if shaded else 'held at 99 %')
+                shaded = True
+            start = None
+    charge.legend(loc='lower left', fontsize=7, ncol=2)
 
 
 def _label_strip(figure, strip, marks, scale, reference):

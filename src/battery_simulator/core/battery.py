@@ -23,9 +23,11 @@ import pickle
 import random
 import threading
 import time
+from collections import namedtuple
 from dataclasses import replace
 
 from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.gauge import CAPACITY_LEARNED, LOGGED_CORRECTION
 from battery_simulator.core.names import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
                                           SupplyStatus)
 from battery_simulator.core.pack import make_model
@@ -97,12 +99,14 @@ class BatteryRecord:
     but publishes each once a second.
     """
 
-    def __init__(self, snapshot, params, load_power_w=0.0, faults=frozenset(), noise=None):
+    def __init__(self, snapshot, params, load_power_w=0.0, faults=frozenset(), noise=None, gauge=None):
         self.snapshot = snapshot
         self.params = params
+        self.gauge = gauge if gauge is not None else GaugeSummary(0, False, snapshot.capacity_ah, None)
         self.percentage = snapshot.percentage / 100.0             # as BatteryState.percentage
-        self.power_supply_status = SUPPLY_STATUS[snapshot.status]
-        self.charging_state = CHARGING_STATE[snapshot.status]
+        status = reported_status(snapshot.status, self.gauge.full)
+        self.power_supply_status = SUPPLY_STATUS[status]
+        self.charging_state = CHARGING_STATE[status]
         self.load_power_w = load_power_w
         self.faults = frozenset(faults)
         self.sensor_dropout = 'sensor_dropout' in self.faults
@@ -145,7 +149,37 @@ class BatteryRecord:
             imbalance_warn_v=self.params.imbalance_warn_v,
             invert_current_sign=bool((self.params.conventions or {}).get('invert_current_sign', False)),
             percentage_scale=float((self.params.conventions or {}).get('percentage_scale', 1)),
+            gauge_corrections=self.gauge.corrections,
+            gauge_learned=self.gauge.learned,
+            gauge_full_capacity_ah=self.gauge.full_capacity_ah,
         )
+
+
+#: what the diagnostics and battery_simulator/state say of the gauge: the corrections larger than one point
+#: so far, whether it has learned its capacity, the capacity it believes (Ah), and ``full``: None for a
+#: gauge that calls the truth's Full full, else whether it has seen its own end of charge (Part 9)
+GaugeSummary = namedtuple('GaugeSummary', 'corrections learned full_capacity_ah full')
+
+
+def gauge_summary(model):
+    """The GaugeSummary of ``model``'s gauge (an ideal gauge: none, the pack's capacity)."""
+    gauge = model.gauge
+    if gauge is None:
+        return GaugeSummary(0, False, model.capacity_ah, None)
+    return GaugeSummary(getattr(gauge, 'corrections', 0), getattr(gauge, 'learned', False), gauge.capacity_ah,
+                        getattr(gauge, 'full', None))
+
+
+def reported_status(status, gauge_full):
+    """The status battery_status shows: a gauge that watches its own end of charge (``gauge_full`` not None)
+    says FULL at it, and CHARGING until it even when the charger has already stopped."""
+    if gauge_full is None:
+        return status
+    if status is Status.CHARGING and gauge_full:
+        return Status.FULL
+    if status is Status.FULL and not gauge_full:
+        return Status.CHARGING
+    return status
 
 
 class Update:
@@ -243,8 +277,9 @@ class Battery:
                 self.model.temperature_c = max(self.model.temperature_c,
                                                self.params.overheat_temperature_c + OVERHEAT_MARGIN_K)
             motion_w = self._step_to(now)
+            self._log_gauge_corrections()
             record = BatteryRecord(self.model.snapshot(), self.params, motion_w + sum(self._payloads.values()),
-                                   self._faults, self._noise)
+                                   self._faults, self._noise, gauge_summary(self.model))
             jump = 'backwards' if self._time_base.jumps_back != back else \
                 'forwards' if self._time_base.jumps_forward != forward else None
             return Update(record, self.model.export_state(), now, jump)
@@ -253,7 +288,21 @@ class Battery:
         """The state now (without stepping), as a record."""
         with self.lock:
             return BatteryRecord(self.model.snapshot(), self.params, sum(self._payloads.values()), self._faults,
-                                 self._noise)
+                                 self._noise, gauge_summary(self.model))
+
+    def _log_gauge_corrections(self):
+        """Each correction of the gauge larger than one point, once: old -> new and why (Part 9)."""
+        gauge = self.model.gauge
+        if gauge is None:
+            return
+        for event in gauge.take_events():
+            if event.size <= LOGGED_CORRECTION:
+                continue
+            if event.kind == CAPACITY_LEARNED:
+                self._log.info('gauge %s: full capacity %.3f Ah -> %.3f Ah (%s)', event.kind, event.old, event.new,
+                               event.reason)
+            else:
+                self._log.info('gauge %s: %.1f %% -> %.1f %% (%s)', event.kind, event.old, event.new, event.reason)
 
     def snapshot_now(self):
         with self.lock:

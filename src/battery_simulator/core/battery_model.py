@@ -26,7 +26,7 @@ import math
 from bisect import bisect_right
 from collections import namedtuple
 
-from battery_simulator.core.gauge import make_gauge
+from battery_simulator.core.gauge_models import make_gauge
 from battery_simulator.core.parameters import BatteryParameters, is_number
 
 _KELVIN = 273.15
@@ -245,7 +245,7 @@ class BatteryModel:
         self.throughput_as = 0.0      # charge through a cell since start, A*s (signed: the gauge counts it)
         self._stuck = None            # (percentage, charge) the gauge_stuck fault holds, or None
         self._update_capacity()
-        self.gauge = make_gauge(params.gauge, self.capacity_ah, self.state_of_charge)   # the true capacity at start
+        self.gauge = make_gauge(params.gauge, self.capacity_ah, self.state_of_charge, self)   # true capacity at start
         self._settle_status()
         self.step(0.0)
 
@@ -316,6 +316,7 @@ class BatteryModel:
                 self.gauge.soc = float(state_of_charge)
             if gauge_error is not None:
                 self.gauge.add_error(gauge_error)
+            self.gauge.restart()
         self._settle_status()
         self.step(0.0)
 
@@ -371,13 +372,7 @@ class BatteryModel:
             return
         throughput, status = self.throughput_as, self.status
         self._step_truth(dt_s, current_a, power_w)
-        if dt_s > 0.0:
-            gauge.count((self.throughput_as - throughput) * self.params.cells_parallel, dt_s)
-        if self.status is not status:
-            if self.status is Status.FULL:
-                gauge.on_full()
-            elif self.status is Status.EMPTY and self.cut_off is CutOff.UNDER_VOLTAGE:
-                gauge.on_empty()
+        gauge.after_step(self, (self.throughput_as - throughput) * self.params.cells_parallel, dt_s, status)
 
     def _step_truth(self, dt_s, current_a=None, power_w=None):
         """Advance the pack itself by ``dt_s`` seconds.
@@ -781,7 +776,7 @@ class BatteryModel:
         if self.gauge is None:
             capacity = self.capacity_ah
             return 100.0 * self.state_of_charge, self.state_of_charge * capacity, capacity
-        return 100.0 * self.gauge.soc, self.gauge.charge_ah, self.gauge.capacity_ah
+        return self.gauge.reading()
 
     def cell_readings(self):
         """(voltages, temperatures) of the series groups: all alike in a lumped pack."""

@@ -50,6 +50,9 @@ def battery_values(state):
         ('Cell Voltage Min (V)', '%.3f' % min(cells) if cells else ''),
         ('Cell Voltage Max (V)', '%.3f' % max(cells) if cells else ''),
         ('Cell Imbalance (mV)', '%.1f' % (1000.0 * cell_imbalance_v(battery))),
+        ('Gauge Corrections', '%d' % getattr(state, 'gauge_corrections', 0)),
+        ('Gauge Full Capacity (Ah)', '%.3f' % getattr(state, 'gauge_full_capacity_ah', battery.capacity)),
+        ('Gauge Learned', 'true' if getattr(state, 'gauge_learned', False) else 'false'),
     ]
 
 

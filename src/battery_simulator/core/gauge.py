@@ -18,6 +18,37 @@ flows (a pack cut off, or full on its charger). Its default sits just above the 
 ``|current_offset_a|`` + DEFAULT_DEADBAND_A.
 """
 
+#: the keys of ``gauge: {model: learning, ...}`` besides the counter's, with their defaults (None: from
+#: the pack: relax_current_a C/20, taper_current_a taper_current_factor x the termination current)
+LEARNING_DEFAULTS = {
+    'relax_current_a': None,
+    'relax_time_s': 1800.0,
+    'relax_dvdt_v_per_s': 4e-6,
+    'rest_update_period_s': 100.0,
+    'gauge_ocv': 'mean',
+    'learn_capacity': True,
+    'learn_min_passed': 0.37,
+    'learn_first_min_passed': 0.90,
+    'learn_temperature_min_c': 10.0,
+    'learn_temperature_max_c': 40.0,
+    'learn_at_end_of_charge': True,
+    'capacity_update_limit': 0.1,
+    'taper_current_a': None,
+    'taper_current_factor': 1.1,
+    'taper_current_min_factor': 0.0,
+    'taper_window_s': 40.0,
+    'taper_windows': 2,
+    'taper_voltage_fraction': 0.02,
+    'end_of_charge_min_soc': 0.0,
+    'lock_zero': True,
+    'load_average_s': 20.0,
+}
+#: the corrections a learning gauge names (battery_replay's gauge_event column)
+OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE = 'ocv_rest', 'capacity_learned', 'end_of_charge'
+EVENT_KINDS = (OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE)
+#: a correction larger than this (percentage points; a capacity change in % of the old value) is logged
+#: once and counted (the diagnostics' Gauge Corrections)
+LOGGED_CORRECTION = 1.0
 #: the deadband above the sensor's offset when the config gives none, A (a few mA, as gauges ship)
 DEFAULT_DEADBAND_A = 0.005
 
@@ -60,6 +91,29 @@ class CoulombCounter:
             soc = max(self.soc, HOLD_BEFORE_FULL)   # never up past it by counting (nor down by the hold)
         self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
+    def after_step(self, model, charge_as, dt_s, status_before):
+        """The model has stepped ``dt_s`` and the pack took ``charge_as`` (A*s, pack): count it, and
+        recalibrate where the pack's status changed to Full (the charge's end) or Empty (the cut-off)."""
+        if dt_s > 0.0:
+            self.count(charge_as, dt_s)
+        status = model.status
+        if status is not status_before:
+            if status.name == 'FULL':
+                self.on_full()
+            elif status.name == 'EMPTY' and model.cut_off is not None and model.cut_off.name == 'UNDER_VOLTAGE':
+                self.on_empty()
+
+    def reading(self):
+        """(percentage, charge Ah, capacity Ah) as the gauge reports them."""
+        return 100.0 * self.soc, self.charge_ah, self.capacity_ah
+
+    def restart(self):
+        """set_state moved the pack: a gauge that watches rests and tapers starts watching anew."""
+
+    def take_events(self):
+        """The corrections since the last call (a coulomb counter names none): [GaugeEvent]."""
+        return ()
+
     def on_full(self):
         if self.recalibrate_at_full:
             self.soc = 1.0
@@ -83,10 +137,3 @@ class CoulombCounter:
     @property
     def capacity_ah(self):
         return self.capacity_as / 3600.0
-
-
-def make_gauge(config, true_capacity_ah, true_soc):
-    """The gauge of a config: None for an ideal one (the truth is shown), else a CoulombCounter."""
-    if not config or config.get('model', 'ideal') == 'ideal':
-        return None
-    return CoulombCounter(config, true_capacity_ah, true_soc)

@@ -90,8 +90,8 @@ class DiagnosticLevel:
 
 #: the diagnostics status name after the node's resolved name
 DIAGNOSTIC_SUFFIX = ': Battery'
-#: the keys of the "Battery" diagnostic status, in order (interface Part 2, and Part 5's cell keys)
+#: the keys of the "Battery" diagnostic status, in order (interface Part 2, Part 5's cell keys, Part 9's gauge keys)
 DIAGNOSTIC_KEYS = ('Voltage (V)', 'Current (A)', 'Charge (Ah)', 'Capacity (Ah)', 'Design Capacity (Ah)',
                    'Percentage (%)', 'Temperature (C)', 'Charging State', 'Health', 'Cycle Count',
                    'State of Health (%)', 'Time Remaining (min)', 'Cell Voltage Min (V)', 'Cell Voltage Max (V)',
-                   'Cell Imbalance (mV)')
+                   'Cell Imbalance (mV)', 'Gauge Corrections', 'Gauge Full Capacity (Ah)', 'Gauge Learned')

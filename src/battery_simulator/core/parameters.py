@@ -309,11 +309,43 @@ GROUP_KEYS = ('capacity_factor', 'resistance_factor', 'initial_soc_offset')
 BALANCING_KEYS = ('current_a', 'start_voltage_v', 'threshold_v')
 GAUGE_KEYS = ('model', 'current_offset_a', 'current_gain_error', 'capacity_error', 'initial_error',
               'deadband_a', 'recalibrate_at_full', 'recalibrate_at_empty')
+#: a learning gauge's keys besides the counter's (core/gauge.py's LEARNING_DEFAULTS), each with its rule
+LEARNING_GAUGE_KEYS = {
+    'relax_current_a': ('a current in (0, 100] A', lambda v: is_number(v) and 0.0 < v <= 100.0),
+    'relax_time_s': ('a number of seconds in (0, 86400]', lambda v: is_number(v) and 0.0 < v <= 86400.0),
+    'relax_dvdt_v_per_s': ('a voltage change in (0, 0.01] V/s per cell', lambda v: is_number(v) and 0.0 < v <= 0.01),
+    'rest_update_period_s': ('a number of seconds in (0, 86400]', lambda v: is_number(v) and 0.0 < v <= 86400.0),
+    'gauge_ocv': ('mean, discharge, charge, or a list of cell voltages on ocv_soc',
+                  lambda v: v in GAUGE_OCV_TABLES or (isinstance(v, (list, tuple)) and all(map(is_number, v)))),
+    'learn_capacity': ('true or false', lambda v: isinstance(v, bool)),
+    'learn_min_passed': ('a fraction of the design capacity in (0, 1]', lambda v: is_number(v) and 0.0 < v <= 1.0),
+    'learn_first_min_passed': ('a fraction of the design capacity in (0, 1]',
+                               lambda v: is_number(v) and 0.0 < v <= 1.0),
+    'learn_temperature_min_c': ('a temperature in [-40, 80] degC', lambda v: is_number(v) and -40.0 <= v <= 80.0),
+    'learn_temperature_max_c': ('a temperature in [-40, 80] degC', lambda v: is_number(v) and -40.0 <= v <= 80.0),
+    'learn_at_end_of_charge': ('true or false', lambda v: isinstance(v, bool)),
+    'capacity_update_limit': ('a fraction in (0, 0.5]', lambda v: is_number(v) and 0.0 < v <= 0.5),
+    'taper_current_a': ('a current in (0, 100] A', lambda v: is_number(v) and 0.0 < v <= 100.0),
+    'taper_current_factor': ('a factor of the termination current in (0, 10]',
+                             lambda v: is_number(v) and 0.0 < v <= 10.0),
+    'taper_current_min_factor': ('a factor of the termination current in [0, 10]',
+                                 lambda v: is_number(v) and 0.0 <= v <= 10.0),
+    'taper_window_s': ('a number of seconds in (0, 3600]', lambda v: is_number(v) and 0.0 < v <= 3600.0),
+    'taper_windows': ('a whole number in [1, 100]', lambda v: _is_count(v) and v <= 100),
+    'taper_voltage_fraction': ('a fraction in (0, 0.5]', lambda v: is_number(v) and 0.0 < v <= 0.5),
+    'end_of_charge_min_soc': ('a fraction in [0, 1]', lambda v: is_number(v) and 0.0 <= v <= 1.0),
+    'lock_zero': ('true or false', lambda v: isinstance(v, bool)),
+    'load_average_s': ('a number of seconds in (0, 3600]', lambda v: is_number(v) and 0.0 < v <= 3600.0),
+}
+#: gauge_ocv by name: the model's mean of its charge and discharge branches (the default), or one of them
+GAUGE_OCV_TABLES = ('mean', 'discharge', 'charge')
+#: gauge presets are config/presets/gauge_<name>.yaml: a gauge section that combines with any pack
+GAUGE_PRESET_PREFIX = 'gauge_'
 #: the spreads are drawn from a normal law clipped to +-SPREAD_SIGMAS: below 1 / SPREAD_SIGMAS every drawn
 #: factor, 1 + spread x draw, stays > 0
 SPREAD_SIGMAS = 3.0
 MAX_SPREAD = 1.0 / SPREAD_SIGMAS
-GAUGE_MODELS = ('ideal', 'coulomb_counter')
+GAUGE_MODELS = ('ideal', 'coulomb_counter', 'learning')
 #: conventions: each key with its default and the values allowed
 CONVENTION_KEYS = {'invert_current_sign': (False, (False, True)), 'percentage_scale': (1, (1, 100))}
 
@@ -363,9 +395,27 @@ def _validate_gauge(params):
     gauge = params.gauge
     if gauge is None:
         return
-    if not isinstance(gauge, dict) or set(gauge) - set(GAUGE_KEYS) or gauge.get('model') not in GAUGE_MODELS:
-        _fail('gauge', gauge, 'a mapping with model (%s) and %s' % (' or '.join(GAUGE_MODELS),
-                                                                    ', '.join(GAUGE_KEYS[1:])))
+    learning = isinstance(gauge, dict) and gauge.get('model') == 'learning'
+    keys = set(GAUGE_KEYS) | (set(LEARNING_GAUGE_KEYS) if learning else set())
+    if not isinstance(gauge, dict) or set(gauge) - keys or gauge.get('model') not in GAUGE_MODELS:
+        unknown = sorted(set(gauge) - keys) if isinstance(gauge, dict) else []
+        _fail('gauge', gauge, 'a mapping with model (%s) and %s%s%s' % (
+            ' or '.join(GAUGE_MODELS), ', '.join(GAUGE_KEYS[1:]),
+            '; a learning gauge also ' + ', '.join(LEARNING_GAUGE_KEYS),
+            ' (unknown: %s)' % ', '.join(map(str, unknown)) if unknown else ''))
+    for key, (allowed, check) in LEARNING_GAUGE_KEYS.items():
+        if key in gauge and not check(gauge[key]):
+            _fail('gauge.%s' % key, gauge[key], allowed)
+    if learning:
+        if isinstance(gauge.get('gauge_ocv'), (list, tuple)):
+            table = list(gauge['gauge_ocv'])
+            if len(table) != len(params.ocv_soc) or any(b <= a for a, b in zip(table, table[1:])):
+                _fail('gauge.gauge_ocv', gauge['gauge_ocv'], 'a list of %d increasing cell voltages (one per '
+                      'ocv_soc point)' % len(params.ocv_soc))
+        low = gauge.get('learn_temperature_min_c', 10.0)
+        if gauge.get('learn_temperature_max_c', 40.0) <= low:
+            _fail('gauge.learn_temperature_max_c', gauge.get('learn_temperature_max_c', 40.0),
+                  'above learn_temperature_min_c (%g degC)' % low)
     for key, low, high in (('current_offset_a', -100.0, 100.0), ('current_gain_error', -0.5, 0.5),
                            ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0),
                            ('deadband_a', 0.0, 100.0)):
@@ -515,6 +565,11 @@ def from_mapping(values, base=None, origin='parameters'):
                                      'series group (leave groups out for a lumped pack)'
                                      % (origin, ', '.join(GROUP_KEYS)))
             value = tuple(value)
+        elif key == 'gauge':
+            try:
+                value = merged_gauge(value, origin)
+            except ParameterError as error:
+                raise ParameterError('%s: %s' % (origin, error)) from None
         elif key in _NUMBERS:
             value = number_from_text(value)
         if key not in _WHOLE_NUMBERS and isinstance(value, int) and not isinstance(value, bool):
@@ -571,8 +626,60 @@ def default_config_path():
 
 
 def preset_names():
-    """Names of the shipped presets."""
-    return sorted(p.stem for p in preset_directory().glob('*.yaml'))
+    """Names of the shipped battery presets (the gauge presets, gauge_*.yaml, are gauge_preset_names())."""
+    return sorted(p.stem for p in preset_directory().glob('*.yaml') if not p.stem.startswith(GAUGE_PRESET_PREFIX))
+
+
+def gauge_preset_names():
+    """Names of the shipped gauge presets (config/presets/gauge_<name>.yaml): impedance_track, modelgauge."""
+    return sorted(p.stem[len(GAUGE_PRESET_PREFIX):] for p in preset_directory().glob(GAUGE_PRESET_PREFIX + '*.yaml'))
+
+
+def gauge_preset(name):
+    """The gauge section of the shipped gauge preset ``name`` (a dict; ParameterError naming the known ones)."""
+    if not isinstance(name, str) or name not in gauge_preset_names():
+        raise ParameterError('gauge preset = %r is invalid: must be one of %s'
+                             % (name, ', '.join(gauge_preset_names())))
+    return gauge_section(preset_directory() / (GAUGE_PRESET_PREFIX + name + '.yaml'))
+
+
+def gauge_section(path):
+    """The ``gauge`` mapping of a YAML file (a gauge preset, or any battery config), its own ``preset``
+    resolved; ParameterError naming the file."""
+    path = Path(path)
+    try:
+        values = yaml.safe_load(path.read_text(encoding='utf-8'))
+    except OSError as error:
+        raise ParameterError('cannot read gauge config %s: %s' % (path, error.strerror)) from None
+    except (UnicodeDecodeError, yaml.YAMLError) as error:
+        raise ParameterError('gauge config %s is not valid YAML: %s' % (path, ' '.join(str(error).split()))) from None
+    if not isinstance(values, dict) or not isinstance(values.get('gauge'), dict):
+        raise ParameterError('gauge config %s has no gauge section (gauge: {model: learning, ...})' % path)
+    return merged_gauge(values['gauge'], str(path))
+
+
+def merged_gauge(gauge, origin='parameters'):
+    """A gauge mapping with its ``preset`` (a gauge preset's name) resolved: the preset's keys, then the
+    mapping's own over them. Any other value is returned as it is (the validation names what is wrong)."""
+    if not isinstance(gauge, dict) or 'preset' not in gauge:
+        return gauge
+    base = gauge_preset(gauge['preset'])
+    merged = dict(base)
+    merged.update({key: value for key, value in gauge.items() if key != 'preset'})
+    return merged
+
+
+def with_gauge_config(params, path):
+    """``params`` with the gauge of the YAML file ``path`` (a gauge preset such as
+    config/presets/gauge_impedance_track.yaml, or any config with a gauge section) in place of its own:
+    how a gauge combines with any pack (the nodes' ``gauge_config``). Empty path: ``params`` as they are."""
+    if not path:
+        return params
+    gauge = gauge_section(path)   # its errors name the file
+    try:
+        return replace(params, gauge=gauge)
+    except ParameterError as error:
+        raise ParameterError('%s: %s' % (path, error)) from None
 
 
 def preset(name):

@@ -31,14 +31,17 @@ from dataclasses import replace
 
 from battery_simulator.core.battery_model import Mode
 from battery_simulator.core.command_line import OneLineParser
+from battery_simulator.core.gauge import EVENT_KINDS
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
 from battery_simulator.core.prediction import predict
 
 #: soc is the truth; gauge_soc what the pack's fuel gauge reads (0-1); the cell voltages of the lowest
-#: and highest series group (alike in a lumped pack)
+#: and highest series group (alike in a lumped pack); gauge_full_capacity_ah the capacity the gauge
+#: believes (a learning gauge's learned one); gauge_event the corrections a learning gauge made since the
+#: row before (ocv_rest, capacity_learned, end_of_charge; several joined by ';'; empty: none)
 OUTPUT_COLUMNS = ('time', 'voltage', 'current', 'soc', 'temperature', 'status', 'cell_voltage_min',
-                  'cell_voltage_max', 'gauge_soc')
+                  'cell_voltage_max', 'gauge_soc', 'gauge_full_capacity_ah', 'gauge_event')
 #: the shortest --max-step, s
 MIN_STEP_S = 0.001
 #: the most model steps one profile segment is cut into (the model is exact
@@ -113,9 +116,23 @@ def replay(params, profile, state_of_charge=1.0, max_step_s=1.0):
 
 def _row(time_s, model):
     cells = model.cell_readings()[0]
+    gauge = model.gauge
+    full_capacity_ah = model.capacity_ah if gauge is None else gauge.capacity_ah
     return ('%g' % time_s, '%.4f' % model.voltage_v, '%.4f' % model.current_a,
             '%.5f' % model.state_of_charge, '%.2f' % model.temperature_c, model.status.name,
-            '%.4f' % min(cells), '%.4f' % max(cells), '%.5f' % (model.gauge_reading()[0] / 100.0))
+            '%.4f' % min(cells), '%.4f' % max(cells), '%.5f' % (model.gauge_reading()[0] / 100.0),
+            '%.4f' % full_capacity_ah, gauge_events(model))
+
+
+def gauge_events(model):
+    """The corrections the model's gauge made since the last call, by name (EVENT_KINDS), joined by ';'."""
+    if model.gauge is None:
+        return ''
+    names = []
+    for event in model.gauge.take_events():
+        if event.kind in EVENT_KINDS and event.kind not in names:
+            names.append(event.kind)
+    return ';'.join(names)
 
 
 def charge(params, charge_current_a, state_of_charge=0.0):

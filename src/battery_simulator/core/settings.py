@@ -51,6 +51,11 @@ BATTERY_SETTINGS = (
             'under use_sim_time: a forward jump of ROS time larger than this between two updates restarts '
             'the time base (nothing drained)', False),
 )
+#: a single battery's gauge from another file (battery_sim_server.py, ROS 2's battery_simulator node; a
+#: fleet's robots take theirs from their configs: gauge: {preset: impedance_track})
+GAUGE_CONFIG = Setting('gauge_config', '', lambda v: isinstance(v, str), 'a path to a YAML file (or empty)',
+                       "a YAML file whose gauge section replaces the config's (a gauge preset, "
+                       'config/presets/gauge_impedance_track.yaml; empty: the config\'s own gauge)', False)
 #: a ROS name, relative or absolute, of letters, digits, underscores and slashes (ROS 1 and ROS 2 alike)
 _TOPIC_NAME = re.compile(r'^/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
 

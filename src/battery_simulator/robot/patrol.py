@@ -1,5 +1,6 @@
 """The demo behaviour's rule (patrol_and_dock), without ROS: patrol a loop of waypoints, drive to the dock
-when the battery is low, charge on contact, back off the dock when full, patrol again.
+when the battery is low, charge on contact, back off the dock when full (after resting there
+``rest_on_dock`` seconds), patrol again.
 
 ``Patrol.control`` is one control step: the pose, the inputs and the ROS time a command holds in, the
 (linear, angular) command out; no command drives or turns past its goal within one step. The front ends
@@ -45,6 +46,9 @@ SETTINGS = (
     Setting('speed', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m/s', 'cruising speed, m/s', False),
     Setting('undock_distance', 0.6, lambda v: is_number(v) and v > 0, 'a number > 0 m',
             'how far to back off the dock, m', False),
+    Setting('rest_on_dock', 0.0, lambda v: is_number(v) and 0 <= v <= 86400, 'a number in [0, 86400] s',
+            'how long to stay on the dock once full (ROS time, s): the charger carries the robot, the pack '
+            'rests (a fuel gauge reads its rest there)', False),
 )
 
 
@@ -84,11 +88,14 @@ class Patrol:
     """The phase machine. ``on_phase(phase)`` logs and publishes a phase; ``send_charge_goal()`` sends the
     charge goal (its end comes back as control's ``goal_outcome``). Not thread-safe."""
 
-    def __init__(self, waypoints, dock_x, dock_y, speed, undock_distance, on_phase, send_charge_goal):
+    def __init__(self, waypoints, dock_x, dock_y, speed, undock_distance, on_phase, send_charge_goal,
+                 rest_on_dock=0.0):
         self.waypoints = waypoint_pairs(waypoints)
         self.dock = (dock_x, dock_y)
         self.speed = speed
         self.undock_distance = undock_distance
+        self.rest_on_dock = rest_on_dock
+        self.rested_s = None   # since the charge goal ended Full (None: not full yet)
         self._on_phase = on_phase
         self._send_charge_goal = send_charge_goal
         self.phase = None
@@ -123,11 +130,17 @@ class Patrol:
                 return 0.0, 0.0   # on the dock: stand still until the contact closes
             return drive_to(x, y, yaw, self.dock[0], self.dock[1], self.speed, step_s)
         if self.phase == CHARGING:
-            if goal_outcome == GOAL_SUCCEEDED:
-                self.undock_from = (x, y)
-                self.enter(UNDOCK)
+            if goal_outcome == GOAL_SUCCEEDED and self.rested_s is None:   # told again at every step: once
+                self.rested_s = 0.0
             elif goal_outcome == GOAL_FAILED:
                 self._send_charge_goal()
+            if self.rested_s is not None:   # full: rest on the dock rest_on_dock seconds, then undock
+                if self.rested_s >= self.rest_on_dock:
+                    self.rested_s = None
+                    self.undock_from = (x, y)
+                    self.enter(UNDOCK)
+                else:
+                    self.rested_s += step_s
             return 0.0, 0.0
         # UNDOCK: back straight off the dock, then patrol from the first waypoint (within ARRIVED_M of
         # the distance: halving what is left each step would otherwise never get there)

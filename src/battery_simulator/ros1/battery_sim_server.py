@@ -7,8 +7,8 @@
 """
 import rospy
 
-from battery_simulator.core.parameters import ParameterError, load_yaml
-from battery_simulator.core.settings import BATTERY_SETTINGS
+from battery_simulator.core.parameters import ParameterError, load_yaml, with_gauge_config
+from battery_simulator.core.settings import BATTERY_SETTINGS, GAUGE_CONFIG
 from battery_simulator.ros1.action_server import BatterySimServer
 from battery_simulator.ros1.saved_state import StateStore
 from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, check_state_file_param,
@@ -19,12 +19,16 @@ from battery_simulator.ros1.workers import StatusTimer, UpdateLoop
 
 def read_settings():
     """All start-up parameters (core/settings.py BATTERY_SETTINGS), checked; raises StartupError."""
-    settings = read_private_settings(BATTERY_SETTINGS)
+    settings = read_private_settings(BATTERY_SETTINGS + (GAUGE_CONFIG,))
     try:
         settings['params'] = load_yaml(settings['config'])
     except ParameterError as error:
         raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name('~config'), settings['config'],
                                                                  error)) from None
+    try:
+        settings['params'] = with_gauge_config(settings['params'], settings.pop('gauge_config'))
+    except ParameterError as error:
+        raise StartupError('parameter %s is invalid: %s' % (rospy.resolve_name('~gauge_config'), error)) from None
     settings['params_path'] = settings.pop('config')
     check_state_file_param(settings['state_file'])
     return settings

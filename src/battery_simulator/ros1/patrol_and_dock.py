@@ -12,6 +12,7 @@ the driving are robot/patrol.py's; this node gives them ROS's inputs.
   - ``~dock_x``, ``~dock_y`` (float, m): the dock (default 0, 0), as battery_dock_contact has it
   - ``~speed`` (float, m/s > 0): cruising speed (default 0.3)
   - ``~undock_distance`` (float, m > 0): how far to back off the dock (default 0.6)
+  - ``~rest_on_dock`` (float, s >= 0): how long to stay on the dock once full, ROS time (default 0)
 
 :Subscribes:
   - ``odom`` (nav_msgs/Odometry), ``battery_low`` and ``charger_contact`` (std_msgs/Bool),
@@ -48,7 +49,7 @@ def read_settings():
 
 
 class PatrolAndDock:
-    def __init__(self, waypoints, dock_x, dock_y, speed, undock_distance):
+    def __init__(self, waypoints, dock_x, dock_y, speed, undock_distance, rest_on_dock=0.0):
         self._lock = threading.Lock()   # guards the inputs below
         self._pose_arrived = threading.Condition(self._lock)
         self._pose = None
@@ -57,7 +58,8 @@ class PatrolAndDock:
         self._low = False
         self._contact = False
         self._percentage = float('nan')
-        self._patrol = rule.Patrol(waypoints, dock_x, dock_y, speed, undock_distance, self._enter, self._send_goal)
+        self._patrol = rule.Patrol(waypoints, dock_x, dock_y, speed, undock_distance, self._enter, self._send_goal,
+                                   rest_on_dock)
         self._client = actionlib.SimpleActionClient(topics.ACTION, battery_simAction)
         self._cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=1)
         self._phase_pub = rospy.Publisher('patrol_and_dock/phase', String, queue_size=1, latch=True)

@@ -29,8 +29,8 @@ from rcl_interfaces.msg import ParameterDescriptor
 
 from battery_simulator.core.battery import LIVE_PARAMETERS, Battery, BatteryError, parse_mode
 from battery_simulator.core.battery_log import resume_battery, say_ready
-from battery_simulator.core.parameters import ParameterError, load_yaml
-from battery_simulator.core.settings import (BATTERY_SETTINGS, PUBLISHER_SETTINGS, Setting, SettingError,
+from battery_simulator.core.parameters import ParameterError, load_yaml, with_gauge_config
+from battery_simulator.core.settings import (BATTERY_SETTINGS, GAUGE_CONFIG, PUBLISHER_SETTINGS, Setting, SettingError,
                                              check_publisher_settings)
 from battery_simulator.core.state_file import StateFileError, StateFileKeeper, check_state_file
 from battery_simulator.ros2 import services
@@ -55,12 +55,17 @@ def read_publisher_settings(node):
         raise StartupError(str(error)) from None
 
 
-def load_config(node, path):
+def load_config(node, path, gauge_config=''):
+    """The battery parameters of ``path``, with the gauge of ``gauge_config`` (a gauge preset's file) if given."""
     try:
-        return load_yaml(path)
+        params = load_yaml(path)
     except ParameterError as error:
         raise StartupError('parameter %s = %r is invalid: %s' % (parameter_name(node, 'config'), path, error)) \
             from None
+    try:
+        return with_gauge_config(params, gauge_config)
+    except ParameterError as error:
+        raise StartupError('parameter %s is invalid: %s' % (parameter_name(node, 'gauge_config'), error)) from None
 
 
 def declare_mode(node, default=False):
@@ -117,10 +122,10 @@ class OneBattery:
 
     def __init__(self, battery_node, status_node):
         self.log = NodeLog(battery_node.get_logger())
-        self.settings = settings = declare_settings(battery_node, STARTUP_SETTINGS + (TIME_SCALE,))
+        self.settings = settings = declare_settings(battery_node, STARTUP_SETTINGS + (TIME_SCALE, GAUGE_CONFIG))
         charging = declare_mode(battery_node)
         publisher = read_publisher_settings(status_node)
-        params = load_config(battery_node, settings['config'])
+        params = load_config(battery_node, settings['config'], settings['gauge_config'])
         check_state_path(battery_node, settings['state_file'])
         self.battery = make_battery(battery_node, settings, params, charging, self.log)
         declare_live(battery_node, self.battery)

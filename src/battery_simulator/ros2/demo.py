@@ -15,8 +15,9 @@ backs off and patrols again; each phase is logged with the level and published o
     2.4 s at 240: every tick wakes every node of this process, and rclpy's executor costs ~1 ms a wake-up)
   - ``initial_percentage`` (0-100, default 40), ``low_percentage`` (0-1, default 0.25): the robot heads for
     the dock below it; ``rate`` (Hz, default 2): battery_status
-  - ``gauge`` (``ideal`` or ``realistic``: config/battery_realistic.yaml), ``config`` (a YAML file; default
-    by gauge)
+  - ``gauge`` (``ideal``; ``realistic``: config/battery_realistic.yaml; ``impedance_track`` or ``modelgauge``:
+    config/battery_impedance_track.yaml or battery_modelgauge.yaml, a learning gauge, and the robot rests 40 or
+    60 min on the dock once full), ``config`` (a YAML file; default by gauge)
   - ``robot_speed`` (m/s, default 0.3), ``dock_x``, ``dock_y`` (m, default 0)
 """
 from pathlib import Path
@@ -28,6 +29,7 @@ from rclpy.parameter import Parameter
 from battery_simulator.core.parameters import default_config_path, is_number
 from battery_simulator.core.settings import Setting
 from battery_simulator.robot import base, clock as clock_rule, dock_contact, patrol
+from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s
 from battery_simulator.ros2.battery_sim import OneBattery, finish
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
@@ -37,7 +39,7 @@ from battery_simulator.ros2.robot_node import read_settings
 from battery_simulator.ros2.sim_clock import SimClock
 from battery_simulator.ros2.startup import BatteryClaim, StartupError, ending_quietly, exit_on_startup_error, init, run
 
-GAUGES = {'ideal': 'battery.yaml', 'realistic': 'battery_realistic.yaml'}
+GAUGES = GAUGE_CONFIGS
 SPEED = next(s for s in clock_rule.SETTINGS if s.name == 'speed')
 SETTINGS = (
     SPEED._replace(default=60.0, description='the whole demo runs this many times as fast as wall time'),
@@ -49,8 +51,10 @@ SETTINGS = (
             'the robot heads for the dock below this fraction', False),
     Setting('rate', 2.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz',
             'battery_status rate, Hz', False),
-    Setting('gauge', 'ideal', lambda v: v in GAUGES, 'ideal or realistic',
-            'ideal: the robot reads the truth; realistic: an aged pack and a coulomb-counting gauge', False),
+    Setting('gauge', 'ideal', lambda v: v in GAUGES, 'ideal, realistic, impedance_track or modelgauge',
+            'ideal: the robot reads the truth; realistic: an aged pack and a coulomb-counting gauge; '
+            'impedance_track, modelgauge: an aged pack and a learning gauge (TI, Analog Devices) that the robot '
+            'lets rest on the dock once full', False),
     Setting('config', '', lambda v: isinstance(v, str), 'a path to a YAML file (or empty: by gauge)',
             'battery parameters (empty: config/battery.yaml, or battery_realistic.yaml with gauge realistic)', False),
     Setting('robot_speed', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m/s', "the robot's cruising speed",
@@ -91,7 +95,8 @@ class Demo:
         self.contact_node = node('battery_dock_contact', **dock)
         self.gate_node = node('battery_cmd_vel_gate', remaps=('cmd_vel_in:=cmd_vel_nav', 'cmd_vel_out:=cmd_vel'))
         self.patrol_node = node('patrol_and_dock', remaps=('cmd_vel:=cmd_vel_nav',),
-                                speed=float(settings['robot_speed']), **dock)
+                                speed=float(settings['robot_speed']),
+                                rest_on_dock=rest_on_dock_s(settings['gauge']), **dock)
         self.nodes = [demo_node, self.clock_node, self.battery_node, self.status_node, self.base_node,
                       self.contact_node, self.gate_node, self.patrol_node]
         self.clock = self.battery = None

@@ -9,7 +9,7 @@ on odometry newer than its last command, at 20 Hz of ROS time.
 :Subscribes: ``odom``, ``battery_low``, ``charger_contact``, ``battery_status`` (for the level in the log)
 :Publishes: ``cmd_vel`` (geometry_msgs/msg/Twist), ``patrol_and_dock/phase``
 :Parameters: ``waypoints`` (flat list x1, y1, x2, y2 ... m), ``dock_x``, ``dock_y`` (m), ``speed`` (m/s, 0.3),
-  ``undock_distance`` (m, 0.6)
+  ``undock_distance`` (m, 0.6), ``rest_on_dock`` (s of ROS time on the dock once full, 0)
 """
 import math
 import time
@@ -35,7 +35,7 @@ ROS2_DEFAULTS = {'waypoints': rule.DEFAULT_WAYPOINTS_FLAT}
 
 
 class PatrolAndDock:
-    def __init__(self, node, waypoints, dock_x, dock_y, speed, undock_distance):
+    def __init__(self, node, waypoints, dock_x, dock_y, speed, undock_distance, rest_on_dock=0.0):
         self._node = node
         self._pose = None
         self._pose_stamp_s = -math.inf     # ROS time of the pose
@@ -46,7 +46,8 @@ class PatrolAndDock:
         self._goal_outcome = None
         self._last_s = None
         self._due_step_s = None   # a control step waiting for a fresh pose
-        self._patrol = rule.Patrol(waypoints, dock_x, dock_y, speed, undock_distance, self._enter, self._send_goal)
+        self._patrol = rule.Patrol(waypoints, dock_x, dock_y, speed, undock_distance, self._enter, self._send_goal,
+                                   rest_on_dock)
         self._client = ActionClient(node, BatterySim, topics.ACTION)
         self._cmd_pub = node.create_publisher(Twist, topics.CMD_VEL, 1)
         self._phase_pub = node.create_publisher(String, PHASE_TOPIC, LATCHED_QOS)
