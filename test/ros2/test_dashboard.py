@@ -20,6 +20,7 @@ from ros2_probe import NodeProcess, Probe
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROBOTS = ['robot%d' % k for k in range(5)]
 DRIVER_TOPIC = '/zz_driver/battery_status'   # a driver's battery (best effort), sorts after the robots
+ROBOT10_TOPIC = '/robot10/battery_status'    # natural order: after robot4, not after robot1
 PORTS = range(18500, 18600)                  # this test's dashboards listen here only
 
 
@@ -115,24 +116,48 @@ def levels_match(probe, port):
     return shown
 
 
+def hosts_named(port):
+    """Every robot's battery names its fleet host (None while one does not)."""
+    shown = batteries(port)
+    hosts = [shown.get(topic_of(robot), {}).get('host') for robot in ROBOTS]
+    return shown if all(host == '/battery_fleet' for host in hosts) else None
+
+
 def test_every_robot_listed_with_the_level_of_its_battery_status(dashboard, probe):
     shown = wait_until(lambda: levels_match(probe, dashboard.port), 15.0,
                        'each level within a point of its battery_status')
     for robot in ROBOTS:
         battery = shown[topic_of(robot)]
         assert battery['fields']['status'] == 'Discharging', battery['fields']
-        assert battery['host'] == '/battery_fleet', 'the fleet host named by its node: %r' % battery['host']
         assert battery['controls'] and not battery['stale'], battery
+    # the host is named by the first /battery_fleet/states message the dashboard hears; the levels above
+    # may come first from each robot's own battery_status (issue 40 item 15: under load the test read the
+    # host before that message and saw ''): wait for it, bounded
+    shown = wait_until(lambda: hosts_named(dashboard.port), 15.0, 'every robot naming its fleet host '
+                       '/battery_fleet (from the fleet host\'s states)')
 
 
-def test_the_page_in_chromium_shows_every_robot(dashboard, probe):
-    result = subprocess.run(['/usr/bin/python3', os.path.join(HERE, 'dashboard_browser.py'),
-                             'http://127.0.0.1:%d/' % dashboard.port, str(len(ROBOTS)), '30'],
-                            capture_output=True, text=True, timeout=120.0, env=dict(os.environ, PYTHONPATH=''))
+def test_the_page_in_chromium_shows_every_robot_in_natural_order(dashboard, probe):
+    """A battery of a robot10 beside robot0..robot4: robot10 after robot4 on the page (natural order;
+    the plain one put it after robot1)."""
+    publisher = probe.node.create_publisher(BatteryState, ROBOT10_TOPIC, 10)
+    timer = probe.node.create_timer(0.5, lambda: publisher.publish(
+        BatteryState(percentage=0.7, voltage=12.0, current=-1.0, power_supply_status=2)))
+    try:
+        wait_until(lambda: ROBOT10_TOPIC in batteries(dashboard.port), 15.0, ROBOT10_TOPIC + ' on the dashboard')
+        result = subprocess.run(['/usr/bin/python3', os.path.join(HERE, 'dashboard_browser.py'),
+                                 'http://127.0.0.1:%d/' % dashboard.port, str(len(ROBOTS) + 1), '30'],
+                                capture_output=True, text=True, timeout=120.0, env=dict(os.environ, PYTHONPATH=''))
+    finally:
+        probe.node.destroy_timer(timer)
+        probe.node.destroy_publisher(publisher)
     assert result.returncode == 0, result.stdout + result.stderr
     page = json.loads(result.stdout)
     robots = [topic_of(robot) for robot in ROBOTS]
-    assert page['topics'][:len(ROBOTS)] == robots and page['topics'] == sorted(page['topics']), page['topics']
+    assert page['topics'][:len(ROBOTS) + 1] == robots + [ROBOT10_TOPIC], page['topics']
+    api = [topic for topic in (b['topic'] for b in json.loads(request(dashboard.port, '/api/batteries')[1])['batteries'])
+           if topic in page['topics']]
+    assert api == page['topics'], 'the API and the page in one order: %s / %s' % (api, page['topics'])
     for topic in robots:
         latest = probe.wait_for(topic, BatteryState, timeout_s=3.0)
         fields = page['fields'][topic]
@@ -161,6 +186,34 @@ def test_a_foreign_host_gets_403(dashboard):
     assert request(dashboard.port, '/api/batteries', host='attacker.test')[0] == 403
     assert request(dashboard.port, '/')[0] == 200
     assert request(dashboard.port, '/battery?topic=%2Frobot0%2Fbattery_status')[0] == 200
+
+
+def test_bad_requests_are_4xx_and_said_on_one_line(dashboard):
+    """Issue 40 item 5, through the real server (the venv's tornado 6.6): 100 path traversals and 100
+    /static/%00 gave 100 WARN lines and 100 tracebacks with 500. Now each is 400/403/404 and the flood is one
+    line (the rest are counted in one line at the end of 10 s)."""
+    paths = ['/static/../../../../etc/passwd', '/static/..%2f..%2f..%2fetc%2fpasswd', '/static/%00',
+             '/javascript/chart.js/..%2f..%2f..%2fetc%2fshadow', '/static/dashboard.js%00']
+    codes = {}
+    for _ in range(40):
+        for path in paths:
+            codes[path] = request(dashboard.port, path)[0]
+    assert all(code in (400, 403, 404) for code in codes.values()), codes
+    output = dashboard.output()
+    assert 'Traceback' not in output and 'Uncaught exception' not in output, output[-3000:]
+    said = [line for line in output.splitlines() if 'etc/passwd' in line or 'etc/shadow' in line or '%00' in line]
+    assert len(said) <= 1, 'more than one line about the flood:\n' + '\n'.join(said[:10])
+
+
+def test_host_of_every_ipv6_address_logs_a_url_a_browser_opens():
+    port = free_port()
+    process = NodeProcess('battery_dashboard', '-r', '__node:=ipv6_dashboard', '-p', 'host:=::',
+                          '-p', 'port:=%d' % port)
+    try:
+        assert process.wait_for_output('http://[::]:%d/' % port, 30.0), process.output()
+        assert request(port, '/', host='[::]:%d' % port)[0] == 200
+    finally:
+        assert process.stop() == 0, process.output()
 
 
 def test_a_best_effort_driver_beside_the_fleet_is_shown(dashboard, probe):
