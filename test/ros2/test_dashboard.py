@@ -207,11 +207,17 @@ def test_bad_requests_are_4xx_and_said_on_one_line(dashboard):
 
 def test_host_of_every_ipv6_address_logs_a_url_a_browser_opens():
     port = free_port()
-    process = NodeProcess('battery_dashboard', '-r', '__node:=ipv6_dashboard', '-p', 'host:=::',
+    # quoted: rcl reads a bare :: as YAML and fails
+    process = NodeProcess('battery_dashboard', '-r', '__node:=ipv6_dashboard', '-p', "host:='::'",
                           '-p', 'port:=%d' % port)
     try:
         assert process.wait_for_output('http://[::]:%d/' % port, 30.0), process.output()
-        assert request(port, '/', host='[::]:%d' % port)[0] == 200
+        connection = http.client.HTTPConnection('::1', port, timeout=15.0)   # tornado binds :: IPv6 only
+        try:
+            connection.request('GET', '/', headers={'Host': '[::1]:%d' % port})
+            assert connection.getresponse().status == 200
+        finally:
+            connection.close()
     finally:
         assert process.stop() == 0, process.output()
 

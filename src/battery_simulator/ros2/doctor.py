@@ -14,6 +14,9 @@ import time
 from battery_simulator.core import doctor
 
 STEP_S = 0.05
+#: how long past ``--sample`` the doctor waits for its subscriptions to be matched to every publisher
+#: (discovery of 200 new subscriptions on a busy machine takes seconds)
+MATCH_ALLOWANCE_S = 5.0
 #: the default discovery wait: Fast DDS announces a participant every 3 s, and one outside another's
 #: initial-peer range (127.0.0.1, the first few participant ids) is found only by that announcement
 #: (2 s missed the test process's endpoints in test_consumers.py, 4 s found them)
@@ -30,7 +33,16 @@ def _endpoint(info):
                                                                                 str(qos.durability.name).lower())
     node = (info.node_namespace.rstrip('/') + '/' + info.node_name) if info.node_name else '(unknown node)'
     # discovery carries no history depth (remote endpoints report 0): unknown, not 0
-    return doctor.Endpoint(node, info.topic_type, reliability, durability, qos.depth or None)
+    return doctor.Endpoint(node, info.topic_type, reliability, durability, qos.depth or None,
+                           gid_text(info.endpoint_gid))
+
+
+def gid_text(gid):
+    """An endpoint's GID as hex, from the graph's endpoint info (a sequence of ints) or a received message's
+    info (a dict with 'data'): the first 16 bytes, what both carry."""
+    if isinstance(gid, dict):
+        gid = gid.get('data', b'')
+    return bytes(gid)[:16].hex() if gid is not None else None
 
 
 def describe(node):
@@ -51,42 +63,50 @@ def describe(node):
     return graph
 
 
-def _sampling_qos(publisher):
-    """A subscription QoS this publisher matches: its own reliability and durability."""
+#: the sampler's QoS: best effort and volatile match every publisher (reliable or not, transient local or not)
+def _sampling_qos():
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=10,
-        reliability=(ReliabilityPolicy.BEST_EFFORT if publisher.reliability == doctor.BEST_EFFORT
-                     else ReliabilityPolicy.RELIABLE),
-        durability=(DurabilityPolicy.TRANSIENT_LOCAL if publisher.durability == doctor.TRANSIENT_LOCAL
-                    else DurabilityPolicy.VOLATILE))
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.VOLATILE)
 
 
 def sample(node, graph, seconds):
-    """Add up to doctor.SAMPLES_PER_TOPIC BatteryState samples to each published battery topic,
-    waiting at most ``seconds``."""
+    """Sample every published battery topic: one subscription each, every message credited to the publisher
+    that sent it (its GID). A topic is done when each publisher sent a message and it has
+    doctor.SAMPLES_PER_TOPIC; the window of ``seconds`` starts for a topic when the subscription is matched
+    to every publisher (``Topic.heard``: how long it was, at the end). Ends when every topic is done or heard
+    out, and at the latest ``seconds`` + MATCH_ALLOWANCE_S after the subscriptions were made."""
     import rclpy
     from sensor_msgs.msg import BatteryState
 
-    def _record(topic, msg):
-        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status)))
+    def _record(topic, msg, info):
+        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status),
+                                           float(msg.voltage), gid_text(info.get('publisher_gid'))))
 
-    subscriptions = []
-    wanted = []
+    started = time.monotonic()
+    pending = {}   # name -> (topic, subscription, publishers, matched since)
     for name, topic in sorted(graph.topics.items()):
-        publishers = [e for e in topic.publishers if doctor.is_battery_type(e.type)]
-        kinds = sorted({(e.reliability, e.durability) for e in publishers})
-        for reliability, durability in kinds:
-            qos = _sampling_qos(doctor.Endpoint('', '', reliability, durability))
-            subscriptions.append(node.create_subscription(
-                BatteryState, name, lambda msg, topic=topic: _record(topic, msg), qos))
-        if kinds:
-            wanted.append(topic)
-    deadline = time.monotonic() + seconds
-    while wanted and time.monotonic() < deadline:
+        publishers = topic.battery_publishers()
+        if not publishers:
+            continue
+        topic.sampled_s = seconds
+        subscription = node.create_subscription(
+            BatteryState, name, lambda msg, info, topic=topic: _record(topic, msg, info), _sampling_qos())
+        pending[name] = [topic, subscription, len({e.key for e in publishers}), None]
+    subscriptions = [entry[1] for entry in pending.values()]
+    hard_deadline = started + seconds + max(seconds, MATCH_ALLOWANCE_S)
+    while pending:
         rclpy.spin_once(node, timeout_sec=STEP_S)
-        if all(len(topic.samples) >= doctor.SAMPLES_PER_TOPIC for topic in wanted):
-            break
+        now = time.monotonic()
+        for name, entry in list(pending.items()):
+            topic, subscription, publishers, since = entry
+            if since is None and subscription.get_publisher_count() >= publishers:
+                entry[3] = since = now
+            if since is not None:
+                topic.heard = now - since
+            done = len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not doctor.unheard(topic)
+            if done or (since is not None and now - since >= seconds) or now >= hard_deadline:
+                del pending[name]
     for subscription in subscriptions:
         node.destroy_subscription(subscription)
 
