@@ -51,7 +51,7 @@ from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
                                                 bridge_tornado_logs, chart_library_problem, make_app, server_options,
                                                 start_pushing)
-from battery_simulator.web.dashboard_model import fleet_battery_topic, namespace_of
+from battery_simulator.web.dashboard_model import FLEET_STATE_TYPE, fleet_battery_topic, namespace_of
 from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, NODE_NAME, SERVICE_WAIT_S, battery_values,
                                                    call_line, finish_settings, fleet_host, listen_problem,
                                                    ready_line, request_fields, ros1_type_name, service_name,
@@ -64,6 +64,16 @@ QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Reliabili
                  durability=DurabilityPolicy.BEST_AVAILABLE)
 #: a battery a fleet message named within this long is read from its host's messages
 FLEET_SERVED_S = 10.0
+#: a fleet topic on the graph that has not spoken yet: until it does (or this long after it was subscribed)
+#: no battery's own topics are subscribed, so that a fleet of 1000 is not subscribed robot by robot first
+#: and dropped again once its host's message names the robots
+FLEET_FIRST_WAIT_S = 5.0
+#: new subscriptions made in one pass of the executor's thread; the rest follow a pass every
+#: BACKLOG_PERIOD_S, so that the fleet's messages are read in between (2000 level topics at 1000 robots)
+SUBSCRIPTIONS_PER_PASS = 100
+BACKLOG_PERIOD_S = 0.05
+#: the order new subscriptions are made in: the fleet first (it brings every card), the levels last
+KIND_ORDER = {'fleet': 0, 'battery': 1, 'state': 2, 'low': 3, 'critical': 3}
 
 
 def gid_key(gid):
@@ -89,6 +99,11 @@ class BatteryDashboard(Node):
         self._hosts = {}           # publisher GID -> node name (fleet hosts)
         self._service_clients = {}         # service name -> Client
         self._service_lock = threading.Lock()
+        self._fleet_heard = set()          # fleet topics that have spoken
+        self._fleet_since = {}             # fleet topic -> monotonic time it was subscribed
+        self._last_graph = None            # (published, served) of the last scan that looked at them
+        self._backlog = []                 # [(key, topic, argument)] still to subscribe, in KIND_ORDER
+        self._backlog_timer = None
 
     def start(self, hub):
         self.hub = hub
@@ -106,24 +121,54 @@ class BatteryDashboard(Node):
                                       throttle_duration_sec=30.0)
             return
         now = time.monotonic()
-        served = {battery for battery, named in self._fleet_named.items() if now - named < FLEET_SERVED_S}
+        served = frozenset(battery for battery, named in self._fleet_named.items() if now - named < FLEET_SERVED_S)
+        waiting = self._fleet_unheard(published, now)
+        graph = (published, served, waiting)
+        if graph == self._last_graph:   # nothing new on the graph (a fleet of 1000: 15000 topics every scan)
+            return
+        self._last_graph = graph
         wanted, controls = subscriptions(published, served)
+        if waiting:   # only the fleet topics until one speaks: its message says which robots it serves
+            wanted = {key: value for key, value in wanted.items() if key[0] == 'fleet'}
         with self.hub.lock:
             for battery, has_controls in controls.items():
                 self.hub.model.add(battery, time.time(), has_controls=has_controls)
         for key in set(self._subscribed) - set(wanted):
+            if waiting and key[0] != 'fleet':
+                continue
             self.destroy_subscription(self._subscribed.pop(key))
             if key[0] == 'battery' and key[1] in controls:   # still there: its fleet host's messages bring it
                 with self.hub.lock:
                     self.hub.model.own_topics_dropped(key[1])
-        for key in set(wanted) - set(self._subscribed):
-            topic, argument = wanted[key]
+        self._backlog = sorted(((key,) + wanted[key] for key in set(wanted) - set(self._subscribed)),
+                               key=lambda entry: (KIND_ORDER[entry[0][0]], entry[0][1]))
+        self._subscribe_backlog()
+
+    def _fleet_unheard(self, published, now):
+        """A fleet topic on the graph that has not spoken, subscribed less than FLEET_FIRST_WAIT_S ago."""
+        for topic, topic_type in published:
+            if topic_type == FLEET_STATE_TYPE and topic not in self._fleet_heard:
+                if now - self._fleet_since.setdefault(topic, now) < FLEET_FIRST_WAIT_S:
+                    return True
+        return False
+
+    def _subscribe_backlog(self):
+        """Make up to SUBSCRIPTIONS_PER_PASS of the subscriptions still to make; the rest in the next pass."""
+        batch, self._backlog = self._backlog[:SUBSCRIPTIONS_PER_PASS], self._backlog[SUBSCRIPTIONS_PER_PASS:]
+        for key, topic, argument in batch:
+            if key in self._subscribed:
+                continue
             message_type, callback = self._kinds[key[0]]
             if key[0] == 'fleet':   # two arguments: rclpy hands the message's info (its publisher) too
                 callback = functools.partial(lambda argument, msg, info: self._on_fleet(msg, info, argument), argument)
             else:
                 callback = functools.partial(callback, argument=argument)
             self._subscribed[key] = self.create_subscription(message_type, topic, callback, QOS)
+        if self._backlog and self._backlog_timer is None:
+            self._backlog_timer = self.create_timer(BACKLOG_PERIOD_S, self._subscribe_backlog, clock=steady_clock())
+        elif not self._backlog and self._backlog_timer is not None:
+            self.destroy_timer(self._backlog_timer)
+            self._backlog_timer = None
 
     # -- callbacks (the executor's thread)
     def _on_battery(self, msg, argument):
@@ -150,8 +195,14 @@ class BatteryDashboard(Node):
         now = time.monotonic()
         with self.hub.lock:
             self.hub.model.on_fleet_message(host_namespace, host, entries, time.time())
-            for name, _ in entries:
-                self._fleet_named[fleet_battery_topic(host_namespace, name)] = now
+        newly_served = False
+        for name, _ in entries:
+            topic = fleet_battery_topic(host_namespace, name)
+            newly_served = newly_served or topic not in self._fleet_named
+            self._fleet_named[topic] = now
+        if fleet not in self._fleet_heard or newly_served:   # its robots' own topics need no subscription
+            self._fleet_heard.add(fleet)
+            self.scan()
 
     def _publisher_of(self, topic, gid):
         """The node that published on ``topic`` with ``gid`` ('' when the graph does not say)."""
