@@ -24,11 +24,11 @@ ROBOT10_TOPIC = '/robot10/battery_status'    # natural order: after robot4, not 
 PORTS = range(18500, 18600)                  # this test's dashboards listen here only
 
 
-def free_port():
+def free_port(family=socket.AF_INET, address='127.0.0.1'):
     for port in PORTS:
-        with socket.socket() as probe_socket:
+        with socket.socket(family) as probe_socket:
             try:
-                probe_socket.bind(('127.0.0.1', port))
+                probe_socket.bind((address, port))
                 return port
             except OSError:
                 continue
@@ -206,7 +206,7 @@ def test_bad_requests_are_4xx_and_said_on_one_line(dashboard):
 
 
 def test_host_of_every_ipv6_address_logs_a_url_a_browser_opens():
-    port = free_port()
+    port = free_port(socket.AF_INET6, '::')
     # quoted: rcl reads a bare :: as YAML and fails
     process = NodeProcess('battery_dashboard', '-r', '__node:=ipv6_dashboard', '-p', "host:='::'",
                           '-p', 'port:=%d' % port)
