@@ -6,6 +6,7 @@ on /usr/bin/python3).
     tools/ros2.sh python3 tools/benchmark_dashboard.py 250 500          # today's battery_fleet at 250, 500
     tools/ros2.sh python3 tools/benchmark_dashboard.py --doctor 100     # battery_doctor at 100 robots too
     tools/ros2.sh python3 tools/benchmark_dashboard.py 250 --before OLD.py   # and an older ros2/dashboard.py
+    tools/ros2.sh python3 tools/benchmark_dashboard.py --stand-in 1000  # a one-node stand-in fleet host of 1000
 
 For each N: battery_fleet robots:=N at 1 Hz is started and waited for (every robot on
 /battery_fleet/states); then battery_dashboard starts and the overview is opened at once: the time from the
@@ -41,7 +42,7 @@ names = set()
 def on(msg):
     names.update(msg.names)
 node.create_subscription(BatteryFleetState, '/battery_fleet/states', on, QoSProfile(depth=1,
-                         reliability=ReliabilityPolicy.BEST_AVAILABLE, durability=DurabilityPolicy.BEST_AVAILABLE))
+                         reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE))
 want, reported = int(sys.argv[1]), False
 try:
     while rclpy.ok():
@@ -49,6 +50,44 @@ try:
         if not reported and len(names) >= want:
             print('all', flush=True)
             reported = True
+except (KeyboardInterrupt, Exception):
+    pass
+'''
+#: --stand-in: one lean node with a fleet host's topics for N robots (each robot's battery_status, the
+#: simulator's state, transient local battery_low / battery_critical said once) and /battery_fleet/states at
+#: 1 Hz: the graph a one-node fleet host of 1000 gives, where today's battery_fleet cannot start 1000
+STAND_IN_FLEET = '''
+import sys, time
+import rclpy
+from rclpy.qos import QoSProfile, DurabilityPolicy
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+from battery_simulator.msg import BatteryFleetState, BatterySimState
+rclpy.init()
+n = int(sys.argv[1])
+node = rclpy.create_node('battery_fleet', start_parameter_services=False)
+latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+keep = []
+for k in range(n):
+    ns = '/robot%d/' % k
+    keep.append(node.create_publisher(BatteryState, ns + 'battery_status', 10))
+    keep.append(node.create_publisher(BatterySimState, ns + 'battery_simulator/state', 10))
+    for level in ('battery_low', 'battery_critical'):
+        publisher = node.create_publisher(Bool, ns + level, latched)
+        publisher.publish(Bool(data=False))
+        keep.append(publisher)
+states = node.create_publisher(BatteryFleetState, '/battery_fleet/states', 10)
+names = ['robot%d' % k for k in range(n)]
+def publish():
+    msg = BatteryFleetState(names=names)
+    msg.header.stamp = node.get_clock().now().to_msg()
+    msg.states = [BatteryState(header=msg.header, percentage=0.9 - 0.0005 * k, voltage=12.0, current=-1.5,
+                               temperature=25.0, charge=2.7, capacity=3.0, design_capacity=3.0,
+                               power_supply_status=2, present=True) for k in range(n)]
+    states.publish(msg)
+node.create_timer(1.0, publish)
+try:
+    rclpy.spin(node)
 except (KeyboardInterrupt, Exception):
     pass
 '''
@@ -159,9 +198,12 @@ def doctor(rows, n):
                  '<= 15 s, every topic sampled' if n == 100 else ''))
 
 
-def dashboard(rows, n, with_doctor, dashboards):
+def dashboard(rows, n, with_doctor, dashboards, stand_in):
     began = time.monotonic()
-    fleet = start(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'time_scale:=1.0'])
+    if stand_in:
+        fleet = start([sys.executable, '-c', STAND_IN_FLEET, str(n)])
+    else:
+        fleet = start(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'time_scale:=1.0'])
     bare = start([sys.executable, '-c', BARE_FLEET_SUBSCRIBER, str(n)], stdout=subprocess.PIPE, text=True)
     try:
         if read_line(bare, FLEET_START_LIMIT_S) != 'all':
@@ -172,13 +214,13 @@ def dashboard(rows, n, with_doctor, dashboards):
         if with_doctor:
             doctor(rows, n)
         for label, command in dashboards:
-            measure_dashboard(rows, n, label, command, fleet, bare, fleet_up)
+            measure_dashboard(rows, n, label, command, fleet, bare, fleet_up, stand_in)
     finally:
         stop(bare)
         stop(fleet)
 
 
-def measure_dashboard(rows, n, label, command, fleet, bare, fleet_up):
+def measure_dashboard(rows, n, label, command, fleet, bare, fleet_up, stand_in):
     port = free_port()
     board = page = None
     try:
@@ -195,13 +237,13 @@ def measure_dashboard(rows, n, label, command, fleet, bare, fleet_up):
         page.stdin.write('\n')
         page.stdin.flush()
         fresh = read_line(page, 60.0)
-        rows.append(('%s, %d robots, the page open' % (label, n),
+        rows.append(('%s, %d robots%s, the page open' % (label, n, ' (stand-in host)' if stand_in else ''),
                      '%.1f %% of a core, %.0f MB; every card %.1f s after its start' % (cpu[board.pid], memory,
                                                                                            cards_s),
                      'bare rclpy subscriber of /battery_fleet/states: %.1f %%, %.0f MB; fleet host %.1f %% '
                      '(up in %.0f s); %s of %d fresh on the page, %d in the API' % (
                          cpu[bare.pid], rss_mb(bare.pid), cpu[fleet.pid], fleet_up, fresh or '?', n, api_count(port)),
-                     '<= 10 %, <= 30 s'))
+                     '<= 10 %%, <= 30 s%s' % (' (stand-in fleet)' if stand_in else '')))
     finally:
         if page is not None and page.poll() is None:
             page.stdin.close()
@@ -238,10 +280,11 @@ def main():
         before = arguments.pop(arguments.index('--before') + 1)
         arguments.remove('--before')
         dashboards.append(('%s' % os.path.basename(before), [sys.executable, before]))
-    sizes = [int(a) for a in arguments if a != '--doctor'] or [250]
+    stand_in = '--stand-in' in arguments
+    sizes = [int(a) for a in arguments if a not in ('--doctor', '--stand-in')] or [250]
     rows = []
     for n in sizes:
-        dashboard(rows, n, with_doctor, dashboards)
+        dashboard(rows, n, with_doctor, dashboards, stand_in)
     header = ('measurement', 'figure', 'beside it (same run)', 'target')
     widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(4)]
     print('\nROS 2 dashboard (Fast DDS on 127.0.0.1, %d cores, load average %s)'
