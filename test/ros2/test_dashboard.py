@@ -233,6 +233,32 @@ def test_a_best_effort_driver_beside_the_fleet_is_shown(dashboard, probe):
         probe.node.destroy_publisher(publisher)
 
 
+def test_a_fleet_topic_first_seen_by_a_subscriber_is_read_once_its_publisher_comes(dashboard, probe):
+    """The dashboard subscribed to a topic the graph knew only from a subscriber (another dashboard, a fleet
+    manager) with "best available" QoS, which then takes transient local and never matches the volatile
+    fleet host that comes later (the 1000-robot benchmark: not one card in 5 minutes). Now it waits for a
+    publisher."""
+    from battery_simulator.msg import BatteryFleetState
+    topic = '/site/battery_fleet/states'
+    listener = probe.node.create_subscription(BatteryFleetState, topic, lambda msg: None, 10)
+    publisher = timer = None
+    try:
+        wait_until(lambda: topic in dict(probe.node.get_topic_names_and_types()), 10.0, topic + ' on the graph')
+        time.sleep(1.5)   # three of the dashboard's scans (scan_period 0.5 s) with only a subscriber there
+        publisher = probe.node.create_publisher(BatteryFleetState, topic, 10)   # reliable, volatile
+        timer = probe.node.create_timer(0.5, lambda: publisher.publish(BatteryFleetState(
+            names=['late_robot'], states=[BatteryState(percentage=0.33, voltage=12.0, current=-1.0,
+                                                        power_supply_status=2)])))
+        wait_until(lambda: abs((batteries(dashboard.port).get('/site/late_robot/battery_status', {}).get('level')
+                                or 0.0) - 33.0) < 0.01, 20.0, 'the late fleet host\'s robot at 33 % on the dashboard')
+    finally:
+        if timer is not None:
+            probe.node.destroy_timer(timer)
+        if publisher is not None:
+            probe.node.destroy_publisher(publisher)
+        probe.node.destroy_subscription(listener)
+
+
 def fatal_lines(process):
     assert process.wait(30.0) not in (None, 0), 'expected a non-zero exit:\n' + process.output()
     output = process.output()

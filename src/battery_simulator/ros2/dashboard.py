@@ -175,6 +175,12 @@ class BatteryDashboard(Node):
         for key, topic, argument in batch:
             if key in self._subscribed:
                 continue
+            if not self.count_publishers(topic):
+                # known only by a subscriber so far: QOS's "best available" would take the strictest policy
+                # (transient local) and never match the volatile publisher that comes later; the next scan
+                # tries again
+                self._last_graph = None
+                continue
             message_type, callback = self._kinds[key[0]]
             if key[0] == 'fleet':   # two arguments: rclpy hands the message's info (its publisher) too
                 callback = functools.partial(lambda argument, msg, info: self._on_fleet(msg, info, argument), argument)
