@@ -66,6 +66,9 @@ from battery_simulator.msg import BatteryFleetState, BatterySimState
 rclpy.init()
 n = int(sys.argv[1])
 node = rclpy.create_node('battery_fleet', start_parameter_services=False)
+# the fleet's topic first: a participant that joins later learns of 4000 endpoints one announcement after
+# another, in the order they were made (under load, minutes for the last ones)
+states = node.create_publisher(BatteryFleetState, '/battery_fleet/states', 10)
 latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 keep = []
 for k in range(n):
@@ -76,7 +79,6 @@ for k in range(n):
         publisher = node.create_publisher(Bool, ns + level, latched)
         publisher.publish(Bool(data=False))
         keep.append(publisher)
-states = node.create_publisher(BatteryFleetState, '/battery_fleet/states', 10)
 names = ['robot%d' % k for k in range(n)]
 def publish():
     msg = BatteryFleetState(names=names)
@@ -255,6 +257,14 @@ def measure_dashboard(rows, n, label, command, fleet, bare, fleet_up, stand_in):
         stop(board)
 
 
+class Rows(list):
+    """The table's rows; each is also printed as it is measured (a run cut short keeps what it measured)."""
+
+    def append(self, row):
+        print(' | '.join(str(cell) for cell in row), flush=True)
+        super().append(row)
+
+
 def take_domain():
     """A ROS domain of this run's own (the tests' lock files: no other run on this machine uses it)."""
     import fcntl
@@ -282,7 +292,7 @@ def main():
         dashboards.append(('%s' % os.path.basename(before), [sys.executable, before]))
     stand_in = '--stand-in' in arguments
     sizes = [int(a) for a in arguments if a not in ('--doctor', '--stand-in')] or [250]
-    rows = []
+    rows = Rows()
     for n in sizes:
         dashboard(rows, n, with_doctor, dashboards, stand_in)
     header = ('measurement', 'figure', 'beside it (same run)', 'target')
