@@ -5,8 +5,10 @@
 Asks the master (getSystemState, getTopicTypes) for every battery or velocity topic, and each node
 on them (its slave API: getPublications / getSubscriptions, with a bound of ``--wait`` seconds,
 default 2) for the type it really uses (the master keeps one type a topic), samples each battery
-topic for up to ``--sample`` seconds (default 3), then prints core/doctor.py's report. ROS 1 has no
-QoS. Exit 0 when clean, 1 when it found something, 2 for a bad command line or no ROS master.
+topic for ``--sample`` seconds (default 3) from the moment it is connected to every publisher (each
+message credited to the node that sent it), then prints core/doctor.py's report. ROS 1 has no QoS.
+Exit 0 when clean and every battery topic sampled, 1 when it found something or left a topic
+unsampled, 2 for a bad command line or no ROS master.
 """
 import sys
 import time

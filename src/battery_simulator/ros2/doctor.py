@@ -4,9 +4,12 @@
 
 Waits ``--wait`` seconds (default 5) for discovery, lists every battery publisher and every
 subscriber of a battery or velocity topic with its type and QoS (reliability, durability, depth
-where discovery tells it), samples each battery topic for up to ``--sample`` seconds (default 3)
-with a QoS each publisher matches, then prints one line per finding (core/doctor.py's rules).
-Exit 0 when clean, 1 when it found something, 2 for a bad command line or an empty graph.
+where discovery tells it), samples each battery topic (one best-effort volatile subscription, which
+every publisher matches; each message credited to its publisher's GID) for ``--sample`` seconds
+(default 3) from the moment it is matched to every publisher, then prints one line per finding
+(core/doctor.py's rules) and an ``unsampled:`` line for the topics it could not hear out. Exit 0 when
+clean and every battery topic sampled, 1 when it found something or left a topic unsampled, 2 for a
+bad command line or an empty graph.
 """
 import sys
 import time
