@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """rostest: battery_doctor.py beside a live ROS 1 graph (doctor.test: sim.launch in robot1).
 
-Clean with the battery and a TwistStamped cmd_vel publisher (exit 0); then eight planted faults (ROS 1 has no QoS), each named
-on a 'problem:' line of its own, and a stopped node's battery topic on the 'unsampled:' line (exit 1)."""
+Clean with the battery and a TwistStamped cmd_vel publisher (exit 0); then eight planted faults (ROS 1 has
+no QoS), each named on a 'problem:' line of its own, and a stopped node's battery topic on the 'unsampled:'
+line (exit 1)."""
 import os
 import signal
 import subprocess

@@ -155,8 +155,8 @@ def test_the_page_in_chromium_shows_every_robot_in_natural_order(dashboard, prob
     page = json.loads(result.stdout)
     robots = [topic_of(robot) for robot in ROBOTS]
     assert page['topics'][:len(ROBOTS) + 1] == robots + [ROBOT10_TOPIC], page['topics']
-    api = [topic for topic in (b['topic'] for b in json.loads(request(dashboard.port, '/api/batteries')[1])['batteries'])
-           if topic in page['topics']]
+    listed = json.loads(request(dashboard.port, '/api/batteries')[1])['batteries']
+    api = [topic for topic in (battery['topic'] for battery in listed) if topic in page['topics']]
     assert api == page['topics'], 'the API and the page in one order: %s / %s' % (api, page['topics'])
     for topic in robots:
         latest = probe.wait_for(topic, BatteryState, timeout_s=3.0)
