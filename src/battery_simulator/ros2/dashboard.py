@@ -140,7 +140,7 @@ class BatteryDashboard(Node):
         now = time.monotonic()
         served = frozenset(battery for battery, named in self._fleet_named.items() if now - named < FLEET_SERVED_S)
         waiting = self._fleet_unheard(published, now)
-        graph = (published, served, waiting)
+        graph = (frozenset(published), served, waiting)   # whatever order the graph lists them in
         if graph == self._last_graph:   # nothing new on the graph (a fleet of 1000: 15000 topics every scan)
             return
         self._last_graph = graph
