@@ -241,9 +241,12 @@ def measure_dashboard(rows, n, label, command, fleet, bare, fleet_up, stand_in):
         time.sleep(SETTLE_S)   # a measurement's pause, not a wait for a condition
         cpu = cpu_percents([board.pid, bare.pid, fleet.pid], CPU_WINDOW_S)
         memory = rss_mb(board.pid)
-        page.stdin.write('\n')
-        page.stdin.flush()
-        fresh = read_line(page, 60.0)
+        try:
+            page.stdin.write('\n')
+            page.stdin.flush()
+            fresh = read_line(page, 60.0)
+        except OSError:   # the page gave up waiting for the cards
+            fresh = 'none'
         rows.append(('%s, %d robots%s, the page open' % (label, n, ' (stand-in host)' if stand_in else ''),
                      '%.1f %% of a core (%.1f %% in the %g s after the cards showed), %.0f MB; every card '
                      '%.1f s after its start' % (cpu[board.pid], early, CPU_WINDOW_S, memory, cards_s),
