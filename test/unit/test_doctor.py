@@ -238,8 +238,8 @@ def test_a_publisher_heard_for_the_whole_window_that_sent_nothing_went_silent():
     status.samples[:] = [Sample(0.8, -1.5, 2, 12.0, '0a')]
     found = [line for line in problems_of(graph) if 'publishers publish' not in line]
     assert found == ['problem: /robot1/battery_status: /robot1/driver sent nothing in 3.0 s of sampling (connected): '
-                     'it went silent (a hung driver, a stopped timer) or publishes slower than that: restart it, or '
-                     'give a longer --sample'], found
+                     'it went silent (a hung driver, a stopped timer), publishes slower than that, or has not matched '
+                     'this doctor yet (a host busy with discovery): restart it, or give a longer --sample'], found
     alone = clean_graph()
     alone.topic('/robot1/battery_status').samples[:] = []
     found = problems_of(alone)

@@ -337,7 +337,8 @@ def _silent_publishers(name, topic):
     if not silent:
         return []
     return ['problem: %s: %s sent nothing in %.1f s of sampling (connected): it went silent (a hung driver, a '
-            'stopped timer) or publishes slower than that: restart it, or give a longer --sample'
+            'stopped timer), publishes slower than that, or has not matched this doctor yet (a host busy with '
+            'discovery): restart it, or give a longer --sample'
             % (name, _who(silent) if len(topic.battery_publishers()) > 1 or silent[0].gid is None
                else silent[0].node, topic.heard)]
 

@@ -20,6 +20,9 @@ STEP_S = 0.05
 #: how long past ``--sample`` the doctor waits for its subscriptions to be matched to every publisher
 #: (discovery of 200 new subscriptions on a busy machine takes seconds)
 MATCH_ALLOWANCE_S = 5.0
+#: during --wait, the battery topics discovery shows are subscribed from this far in, and again every period
+FIRST_LOOK_S = 0.5
+LOOK_PERIOD_S = 1.0
 #: the default discovery wait: Fast DDS announces a participant every 3 s, and one outside another's
 #: initial-peer range (127.0.0.1, the first few participant ids) is found only by that announcement
 #: (2 s missed the test process's endpoints in test_consumers.py, 4 s found them)
@@ -73,45 +76,71 @@ def _sampling_qos():
                       durability=DurabilityPolicy.VOLATILE)
 
 
-def sample(node, graph, seconds):
-    """Sample every published battery topic: one subscription each, every message credited to the publisher
-    that sent it (its GID). A topic is done when each publisher sent a message and it has
-    doctor.SAMPLES_PER_TOPIC; the window of ``seconds`` starts for a topic when the subscription is matched
-    to every publisher (``Topic.heard``: how long it was, at the end). Ends when every topic is done or heard
-    out, and at the latest ``seconds`` + MATCH_ALLOWANCE_S after the subscriptions were made."""
-    import rclpy
-    from sensor_msgs.msg import BatteryState
+class Sampler:
+    """One subscription a published battery topic, made as soon as discovery shows the topic (during
+    ``--wait``: a busy host matching 200 new subscriptions needs those seconds before it sends to them),
+    every message credited to the publisher that sent it (its GID)."""
 
-    def _record(topic, msg, info):
-        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status),
-                                           float(msg.voltage), gid_text(info.get('publisher_gid'))))
+    def __init__(self, node):
+        self.node = node
+        self.records = {}   # topic name -> {'samples', 'subscription', 'publishers', 'since'}
 
-    started = time.monotonic()
-    pending = {}   # name -> (topic, subscription, publishers, matched since)
-    for name, topic in sorted(graph.topics.items()):
-        publishers = topic.battery_publishers()
-        if not publishers:
-            continue
-        topic.sampled_s = seconds
-        subscription = node.create_subscription(
-            BatteryState, name, lambda msg, info, topic=topic: _record(topic, msg, info), _sampling_qos())
-        pending[name] = [topic, subscription, len({e.key for e in publishers}), None]
-    subscriptions = [entry[1] for entry in pending.values()]
-    hard_deadline = started + seconds + max(seconds, MATCH_ALLOWANCE_S)
-    while pending:
-        rclpy.spin_once(node, timeout_sec=STEP_S)
-        now = time.monotonic()
-        for name, entry in list(pending.items()):
-            topic, subscription, publishers, since = entry
-            if since is None and subscription.get_publisher_count() >= publishers:
-                entry[3] = since = now
-            if since is not None:
-                topic.heard = now - since
-            done = len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not doctor.unheard(topic)
-            if done or (since is not None and now - since >= seconds) or now >= hard_deadline:
-                del pending[name]
-    for subscription in subscriptions:
-        node.destroy_subscription(subscription)
+    def subscribe(self, graph):
+        """Subscribe to every published battery topic of ``graph`` not subscribed yet."""
+        from sensor_msgs.msg import BatteryState
+
+        def _record(samples, msg, info):
+            samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status),
+                                         float(msg.voltage), gid_text(info.get('publisher_gid'))))
+        for name, topic in sorted(graph.topics.items()):
+            publishers = len({e.key for e in topic.battery_publishers()})
+            if not publishers:
+                continue
+            if name in self.records:
+                self.records[name]['publishers'] = publishers
+                continue
+            samples = []
+            subscription = self.node.create_subscription(
+                BatteryState, name, lambda msg, info, samples=samples: _record(samples, msg, info), _sampling_qos())
+            self.records[name] = {'samples': samples, 'subscription': subscription, 'publishers': publishers,
+                                  'since': None}
+
+    def track(self, now):
+        """Note when each subscription is matched to every publisher its topic has."""
+        for record in self.records.values():
+            if record['since'] is None and record['subscription'].get_publisher_count() >= record['publishers']:
+                record['since'] = now
+
+    def run(self, graph, seconds):
+        """Sample ``graph``'s battery topics: a topic is done when each publisher sent a message and it has
+        doctor.SAMPLES_PER_TOPIC; its window of ``seconds`` starts when its subscription is matched to every
+        publisher (``Topic.heard``: how long, at the end). Ends when every topic is done or heard out, and at
+        the latest ``seconds`` + MATCH_ALLOWANCE_S from now."""
+        import rclpy
+        self.subscribe(graph)
+        pending = {}
+        for name, topic in graph.topics.items():
+            if name in self.records and topic.battery_publishers():
+                topic.sampled_s = seconds
+                topic.samples = self.records[name]['samples']
+                pending[name] = topic
+        hard_deadline = time.monotonic() + seconds + max(seconds, MATCH_ALLOWANCE_S)
+        while pending:
+            rclpy.spin_once(self.node, timeout_sec=STEP_S)
+            now = time.monotonic()
+            self.track(now)
+            for name, topic in list(pending.items()):
+                since = self.records[name]['since']
+                if since is not None:
+                    topic.heard = now - since
+                done = len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not doctor.unheard(topic)
+                if done or (since is not None and now - since >= seconds) or now >= hard_deadline:
+                    del pending[name]
+
+    def close(self):
+        for record in self.records.values():
+            self.node.destroy_subscription(record['subscription'])
+        self.records = {}
 
 
 def _other_nodes(node):
@@ -140,16 +169,24 @@ def main(argv=None):
     code = doctor.EXIT_USAGE
     try:
         node = rclpy.create_node('battery_doctor', start_parameter_services=False)
-        deadline = time.monotonic() + options['wait']
+        sampler = Sampler(node)
+        started = time.monotonic()
+        deadline, next_look = started + options['wait'], started + FIRST_LOOK_S
         while time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=STEP_S)
+            now = time.monotonic()
+            sampler.track(now)
+            if now >= next_look:   # subscribe to what discovery shows so far: matching takes the rest of --wait
+                sampler.subscribe(describe(node))
+                next_look = now + LOOK_PERIOD_S
         if not _other_nodes(node):
             print('battery_doctor: no other node on the ROS 2 graph (ROS_DOMAIN_ID=%s) within %g s: start the '
                   'robot first, or give a longer --wait' % (os.environ.get('ROS_DOMAIN_ID', '0'), options['wait']),
                   file=sys.stderr)
             return
         graph = describe(node)
-        sample(node, graph, options['sample'])
+        sampler.run(graph, options['sample'])
+        sampler.close()
         lines, code = doctor.report(graph)
         print('\n'.join(lines), flush=True)
     except KeyboardInterrupt:
