@@ -2,8 +2,9 @@
 """Plants publishers and subscribers for battery_doctor.py's rostest, all in one rospy node.
 
     doctor_planted.py NODE_NAME SPEC [SPEC ...]
-    SPEC: pub|sub,topic=/ABS/NAME,type=BatteryState|Twist|TwistStamped[,percentage=P,current=A,status=S]
-    (a BatteryState publisher's values, sent at 5 Hz)
+    SPEC: pub|sub,topic=/ABS/NAME,type=BatteryState|Twist|TwistStamped[,percentage=P,current=A,status=S,voltage=V]
+          [,silent_after=N]
+    (a BatteryState publisher's values, sent at 5 Hz; silent_after: N messages, then nothing: it went silent)
 
 Sets /NODE_NAME/ready once every endpoint exists; ends on SIGINT or SIGTERM.
 """
@@ -33,14 +34,17 @@ def main():
             msg.percentage = float(fields.get('percentage', 0.5))
             msg.current = float(fields.get('current', -1.0))
             msg.power_supply_status = int(fields.get('status', BatteryState.POWER_SUPPLY_STATUS_DISCHARGING))
-            msg.voltage = 11.1
+            msg.voltage = float(fields.get('voltage', 11.1))
             msg.present = True
-        senders.append((rospy.Publisher(fields['topic'], msg_type, queue_size=10), msg))
+        senders.append([rospy.Publisher(fields['topic'], msg_type, queue_size=10), msg,
+                        int(fields.get('silent_after', -1))])
     rospy.set_param('~ready', True)
     rate = rospy.Rate(5)
     while not rospy.is_shutdown():
-        for publisher, msg in senders:
-            publisher.publish(msg)
+        for sender in senders:
+            if sender[2] != 0:
+                sender[0].publish(sender[1])
+                sender[2] -= 1
         try:
             rate.sleep()
         except rospy.ROSInterruptException:

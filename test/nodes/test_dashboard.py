@@ -24,6 +24,7 @@ from std_msgs.msg import Header
 
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import SetState
+from battery_simulator.web.dashboard_model import natural_key
 from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(5)]
@@ -157,7 +158,7 @@ class TestDashboard(unittest.TestCase):
     def test_1_one_element_per_battery_sorted_with_the_level_of_battery_status(self):
         topics = [card.get_attribute('data-battery') for card in self.cards()]
         self.assertEqual(topics[:len(ROBOTS)], [topic_of(robot) for robot in ROBOTS])
-        self.assertEqual(topics, sorted(topics), 'sorted by name')
+        self.assertEqual(topics, sorted(topics, key=natural_key), 'in the natural order of their names')
         for robot in ROBOTS:
             # level, voltage and current of one and the same message (a new one may land between reads)
             def shown():

@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """rostest: battery_doctor.py beside a live ROS 1 graph (doctor.test: sim.launch in robot1).
 
-Clean with the battery and a TwistStamped cmd_vel publisher (exit 0); then five planted mismatches (ROS 1 has no QoS), each named
-on a 'problem:' line of its own (exit 1)."""
+Clean with the battery and a TwistStamped cmd_vel publisher (exit 0); then eight planted faults (ROS 1 has
+no QoS), each named on a 'problem:' line of its own, and a stopped node's battery topic on the 'unsampled:'
+line (exit 1)."""
 import os
+import signal
 import subprocess
 import sys
 import unittest
@@ -62,14 +64,22 @@ class TestDoctor(unittest.TestCase):
                   'pub,topic=/r2/cmd_vel,type=TwistStamped',
                   'pub,topic=/r4/battery_status,type=BatteryState,percentage=85',
                   'pub,topic=/r5/battery_status,type=BatteryState,current=-2.0,status=1',
-                  'pub,topic=/r6/battery_status,type=BatteryState'),
+                  'pub,topic=/r6/battery_status,type=BatteryState',
+                  # issue 40 item 4: a NaN voltage, a percentage of -1, a publisher that went silent
+                  'pub,topic=/r9/battery_status,type=BatteryState,voltage=nan',
+                  'pub,topic=/r10/battery_status,type=BatteryState,percentage=-1',
+                  'pub,topic=/r11/battery_status,type=BatteryState,silent_after=2'),
             plant('planted_b',
                   'sub,topic=/r7/battery_state,type=BatteryState',
                   'sub,topic=/r2/cmd_vel,type=Twist',
-                  'pub,topic=/r6/battery_status,type=BatteryState')]
+                  'pub,topic=/r6/battery_status,type=BatteryState'),
+            # a node that answers nothing (stopped): its battery topic cannot be heard, and is listed unsampled
+            plant('planted_c', 'pub,topic=/r12/battery_status,type=BatteryState')]
+        os.kill(planted[2].pid, signal.SIGSTOP)
         try:
             code, output = run_doctor('--sample', '3')
         finally:
+            os.kill(planted[2].pid, signal.SIGCONT)
             for process in planted:
                 stop_process(process)
         found = problems(output)
@@ -81,12 +91,20 @@ class TestDoctor(unittest.TestCase):
                      '/planted_b subscribes geometry_msgs/Twist only'),
             'percentage': ('problem: /r4/battery_status:', 'percentage 85 is above 1'),
             'sign': ('problem: /r5/battery_status:', 'current -2 A is negative', 'CHARGING'),
-            'two': ('problem: /r6/battery_status:', '2 nodes publish', '/planted_a', '/planted_b'),
+            'two': ('problem: /r6/battery_status:', '2 publishers publish', '/planted_a', '/planted_b'),
+            'NaN voltage': ('problem: /r9/battery_status:', 'voltage NaN is out of its range'),
+            'percentage -1': ('problem: /r10/battery_status:', 'percentage -1 is below 0'),
+            'silent': ('problem: /r11/battery_status:', '/planted_a sent nothing in', 'went silent'),
         }
         missing = sorted(kind for kind, words in expected.items()
                          if len([line for line in found if all(word in line for word in words)]) != 1)
         self.assertFalse(missing, 'not named once each: %s\n%s' % (missing, output))
         self.assertEqual(len(found), len(expected), 'unexpected findings:\n' + output)
+        unsampled = [line for line in output.splitlines() if line.startswith('unsampled:')]
+        self.assertEqual(len(unsampled), 1, output)
+        self.assertIn('/r12/battery_status (not connected to every publisher)', unsampled[0])
+        self.assertNotIn('/r11/', unsampled[0])
+        self.assertNotIn('no problems found', output)
 
 
 if __name__ == '__main__':

@@ -4,7 +4,11 @@
     doctor_planted.py SPEC [SPEC ...]
     SPEC: pub|sub,node=NAME,ns=/robotN,topic=NAME,type=BatteryState|Twist|TwistStamped
           [,reliability=reliable|best_effort][,durability=volatile|transient_local][,depth=N]
-          [,percentage=P,current=A,status=S]   (a BatteryState publisher's values, sent at 5 Hz)
+          [,percentage=P,current=A,status=S,voltage=V]   (a BatteryState publisher's values, sent at 5 Hz)
+          [,silent_after=N]   (a publisher that sends N messages, then nothing: it went silent)
+    or    fleet,robots=N      (one node publishing /robotK/battery_status and /robotK/battery_state, K < N,
+                               at 1 Hz: a fleet host's battery topics, for the doctor at 100 robots)
+Several specs may name one node (three publishers sharing a node name: three nodes of that name).
 
 Prints 'ready' once every endpoint exists; ends on SIGINT or SIGTERM. Run under tools/ros2.sh.
 Endpoints of two types on one topic need two processes (one DDS participant takes one type a topic).
@@ -21,9 +25,24 @@ from sensor_msgs.msg import BatteryState
 TYPES = {'BatteryState': BatteryState, 'Twist': Twist, 'TwistStamped': TwistStamped}
 
 
+def plant_fleet(robots, executor, keep):
+    node = rclpy.create_node('planted_fleet')
+    executor.add_node(node)
+    senders = []
+    for k in range(robots):
+        msg = BatteryState(percentage=0.5 + 0.004 * k, voltage=11.1, current=-1.0, present=True,
+                           power_supply_status=BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+        for name in ('battery_status', 'battery_state'):
+            senders.append((node.create_publisher(BatteryState, '/robot%d/%s' % (k, name), 10), msg))
+    keep.append(node.create_timer(1.0, lambda: [publisher.publish(msg) for publisher, msg in senders]))
+
+
 def plant(spec, executor, keep):
     role, *pairs = spec.split(',')
     fields = dict(pair.split('=', 1) for pair in pairs)
+    if role == 'fleet':
+        plant_fleet(int(fields['robots']), executor, keep)
+        return
     node = rclpy.create_node(fields['node'], namespace=fields.get('ns', '/'))
     executor.add_node(node)
     msg_type = TYPES[fields['type']]
@@ -41,9 +60,15 @@ def plant(spec, executor, keep):
         msg.percentage = float(fields.get('percentage', 0.5))
         msg.current = float(fields.get('current', -1.0))
         msg.power_supply_status = int(fields.get('status', BatteryState.POWER_SUPPLY_STATUS_DISCHARGING))
-        msg.voltage = 11.1
+        msg.voltage = float(fields.get('voltage', 11.1))
         msg.present = True
-    keep.append(node.create_timer(0.2, lambda: publisher.publish(msg)))
+    left = [int(fields.get('silent_after', -1))]
+
+    def send():
+        if left[0] != 0:
+            publisher.publish(msg)
+            left[0] -= 1
+    keep.append(node.create_timer(0.2, send))
 
 
 def main():

@@ -247,12 +247,29 @@ def test_a_fleet_host_repeating_a_silent_robots_last_message_does_not_keep_it_fr
     assert [(view['topic'], view['stale']) for view in dashboard.snapshot(41.0)] == [(topic, False)]
 
 
-def test_snapshot_is_sorted_by_topic():
+def test_snapshot_and_changes_are_in_natural_order_and_each_view_carries_its_order_key():
+    """robot2 before robot10 (issue 40 item 5: the plain order put robot10 first); the page places its cards
+    by each view's 'order', whose plain string order is the natural one."""
     dashboard = DashboardModel(history_s=600)
-    for topic in ('/robot2/battery_status', '/robot10/battery_status', '/alpha/battery_status'):
+    topics = ['/robot10/battery_status', '/robot2/battery_status', '/alpha/battery_status', '/robot1/battery_status',
+              '/robot02b/battery_status', '/robot100/battery_status', '/robot9/battery_status']
+    for topic in topics:
         dashboard.on_battery(topic, battery(), 0.0)
-    assert [view['topic'] for view in dashboard.snapshot(0.0)] == sorted(
-        ['/robot2/battery_status', '/robot10/battery_status', '/alpha/battery_status'])
+    natural = ['/alpha/battery_status', '/robot1/battery_status', '/robot2/battery_status',
+               '/robot02b/battery_status', '/robot9/battery_status', '/robot10/battery_status',
+               '/robot100/battery_status']
+    views = dashboard.snapshot(0.0)
+    assert [view['topic'] for view in views] == natural
+    assert sorted(views, key=lambda view: view['order']) == views, 'the page\'s plain order of the keys differs'
+    changed, _ = dashboard.tick(0.5)
+    assert [view['topic'] for view in changed] == natural
+
+
+def test_natural_key():
+    assert model.natural_key('/robot2/x') < model.natural_key('/robot10/x') < model.natural_key('/robot10a/x')
+    assert model.natural_key('/a/battery_status') < model.natural_key('/b/battery_status')
+    assert model.natural_key('/robot007/x') < model.natural_key('/robot8/x')
+    assert sorted(['robot%d' % k for k in range(1000)], key=model.natural_key) == ['robot%d' % k for k in range(1000)]
 
 
 # -- the web app's checks -----------------------------------------------------------
@@ -419,6 +436,70 @@ class TestWebApp(tornado_testing.AsyncHTTPTestCase):
         assert len(lines) == 2 and later == []
         assert self.fetch('/no/page', headers={'Host': self.host()}).code == 404   # said at once again
         assert lines[2] == 'request refused: 404 GET /no/page' and len(later) == 1
+
+
+    def test_bad_paths_get_4xx_and_a_flood_of_them_one_line_then_one_count(self):
+        """Issue 40 item 5: 200 path traversals gave 200 WARN lines (tornado's own, one per 403), and 100
+        /static/%00 gave 100 tracebacks and 500 (tornado >= 6.5; the ROS 2 test goes through that one)."""
+        lines, later = [], []
+        self._app.settings['log_function'] = app.RequestLog(
+            lines.append, call_later=lambda delay_s, function: later.append((delay_s, function)))
+        tornado_lines = []
+        capture = logging.Handler(logging.DEBUG)
+        capture.emit = tornado_lines.append
+        for name in app.TORNADO_LOGGERS:
+            logging.getLogger(name).addHandler(capture)
+        bad = ['/static/../../../../etc/passwd', '/static/..%2f..%2f..%2fetc%2fpasswd', '/static/%2e%2e/%2e%2e/x',
+               '/javascript/chart.js/..%2f..%2fetc%2fpasswd', '/static//etc/passwd', '/static/..', '/static/',
+               '/static/%00', '/static/a%00b.js', '/static/dashboard.js%00', '/static/%0a', '/static/%ff',
+               '/api/history?topic=%ff', '/api/history?topic=%00', '/%00', '/static/nothing.js']
+        try:
+            codes = {}
+            for round_ in range(13):
+                for path in bad:
+                    codes[path] = self.fetch(path, headers={'Host': self.host()}).code
+        finally:
+            for name in app.TORNADO_LOGGERS:
+                logging.getLogger(name).removeHandler(capture)
+        assert all(code in (400, 403, 404) for code in codes.values()), codes
+        assert codes['/static/%00'] == 400 and codes['/static/../../../../etc/passwd'] == 403, codes
+        assert [r.getMessage() for r in tornado_lines if r.levelno >= logging.WARNING] == [], \
+            'tornado said something of its own'
+        assert len(lines) == 1 and lines[0].startswith('request refused: 403 GET /static/../../../../etc/passwd'), lines
+        later.pop()[1]()
+        assert len(lines) == 2 and lines[1].startswith('%d more request(s) refused or failed in the last 10 s'
+                                                       % (13 * len(bad) - 1)), lines
+
+    def test_a_failure_that_is_not_an_http_error_is_named_on_the_one_line_without_a_traceback(self):
+        lines, later = [], []
+        self._app.settings['log_function'] = app.RequestLog(
+            lines.append, call_later=lambda delay_s, function: later.append((delay_s, function)))
+        tornado_lines = []
+        capture = logging.Handler(logging.WARNING)
+        capture.emit = tornado_lines.append
+        for name in app.TORNADO_LOGGERS:
+            logging.getLogger(name).addHandler(capture)
+        original = self.hub.model.history
+        self.hub.model.history = lambda topic, now: 1 / 0
+        try:
+            for _ in range(5):
+                assert self.fetch('/api/history?topic=x', headers={'Host': self.host()}).code == 500
+        finally:
+            self.hub.model.history = original
+            for name in app.TORNADO_LOGGERS:
+                logging.getLogger(name).removeHandler(capture)
+        assert tornado_lines == [] and len(lines) == 1, (lines, tornado_lines)
+        assert lines[0] == 'request failed: 500 GET /api/history?topic=x (ZeroDivisionError: division by zero)', lines
+
+
+def test_the_ready_line_gives_an_address_a_browser_opens():
+    from battery_simulator.web.dashboard_rules import page_url, ready_line
+    assert page_url('::', 8090) == 'http://[::]:8090/'
+    assert page_url('::1', 80) == 'http://[::1]:80/'
+    assert page_url('[::1]', 8090) == 'http://[::1]:8090/'
+    assert page_url('0.0.0.0', 8090) == 'http://0.0.0.0:8090/'
+    assert ready_line({'host': '::', 'port': 8091, 'allow_control': False}) == \
+        'battery_dashboard: http://[::]:8091/ (read-only)'
 
 
 def test_the_node_warns_at_start_up_when_the_chart_library_is_missing(tmp_path):

@@ -23,6 +23,7 @@ def clean_graph():
     status.publishers.append(endpoint('/robot1/battery_state_pub'))
     status.subscribers.append(endpoint('/robot1/docking_server', depth=1))
     status.samples += [Sample(0.8, -1.5, 2), Sample(0.79, -1.5, 2)]
+    status.heard = status.sampled_s = 3.0     # the sampler heard every publisher for its whole window
     cmd_vel = graph.topic('/robot1/cmd_vel')
     cmd_vel.publishers.append(endpoint('/robot1/teleop', TWIST))
     cmd_vel.subscribers.append(endpoint('/robot1/battery_simulator', TWIST, depth=1))
@@ -192,8 +193,84 @@ def test_two_nodes_publishing_one_battery():
     graph.topic('/robot1/battery_status').publishers.append(endpoint('/robot1/other_battery'))
     found = problems_of(graph)
     assert len(found) == 1, found
-    assert found[0].startswith('problem: /robot1/battery_status: 2 nodes publish this battery '
+    assert found[0].startswith('problem: /robot1/battery_status: 2 publishers publish this battery '
                                '(/robot1/battery_state_pub, /robot1/other_battery)'), found
+
+
+def gid_endpoint(node, gid):
+    return Endpoint(node, BATTERY, RELIABLE, VOLATILE, 10, gid)
+
+
+def test_three_publishers_sharing_a_node_name_are_three():
+    """Issue 40 item 4: counted by node name they were one, and nothing was said."""
+    graph = clean_graph()
+    status = graph.topic('/robot1/battery_status')
+    status.publishers[:] = [gid_endpoint('/robot1/battery_state_pub', gid) for gid in ('0a', '0b', '0c')]
+    status.samples[:] = [Sample(0.8, -1.5, 2, 12.0, gid) for gid in ('0a', '0b', '0c')]
+    found = problems_of(graph)
+    assert found == ['problem: /robot1/battery_status: 3 publishers publish this battery (/robot1/battery_state_pub '
+                     '(3 publishers)): a reader sees their readings interleaved; give each battery its own namespace '
+                     '(__ns:=/robotN) or stop all but one'], found
+
+
+@pytest.mark.parametrize('voltage', [math.nan, -1.0, math.inf])
+def test_a_voltage_out_of_its_range_is_named(voltage):
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples.append(Sample(0.8, -1.5, 2, voltage))
+    found = problems_of(graph)
+    assert len(found) == 1 and found[0].startswith('problem: /robot1/battery_status: voltage %s is out of its range'
+                                                   % ('NaN' if math.isnan(voltage) else '%.3g' % voltage)), found
+
+
+def test_a_percentage_below_0_is_named_and_nan_and_0_are_not():
+    graph = clean_graph()
+    graph.topic('/robot1/battery_status').samples += [Sample(math.nan, -1.5, 2, 12.0), Sample(0.0, -1.5, 2, 12.0)]
+    assert problems_of(graph) == []
+    graph.topic('/robot1/battery_status').samples.append(Sample(-1.0, -1.5, 2, 12.0))
+    found = problems_of(graph)
+    assert len(found) == 1 and found[0].startswith('problem: /robot1/battery_status: percentage -1 is below 0'), found
+
+
+def test_a_publisher_heard_for_the_whole_window_that_sent_nothing_went_silent():
+    graph = clean_graph()
+    status = graph.topic('/robot1/battery_status')
+    status.publishers[:] = [gid_endpoint('/robot1/battery_state_pub', '0a'), gid_endpoint('/robot1/driver', '0b')]
+    status.samples[:] = [Sample(0.8, -1.5, 2, 12.0, '0a')]
+    found = [line for line in problems_of(graph) if 'publishers publish' not in line]
+    assert found == ['problem: /robot1/battery_status: /robot1/driver sent nothing in 3.0 s of sampling (connected): '
+                     'it went silent (a hung driver, a stopped timer), publishes slower than that, or has not matched '
+                     'this doctor yet (a host busy with discovery): restart it, or give a longer --sample'], found
+    alone = clean_graph()
+    alone.topic('/robot1/battery_status').samples[:] = []
+    found = problems_of(alone)
+    assert len(found) == 1 and '/robot1/battery_state_pub sent nothing in 3.0 s' in found[0], found
+    lines, status_code = report(alone)
+    assert status_code == EXIT_FOUND and lines[-1] == '1 problem(s) found', lines
+
+
+def test_a_topic_not_heard_out_is_listed_unsampled_on_its_own_line_and_exits_1():
+    """Issue 40 item 4: 73 of 200 topics unsampled and still 'no problems found'."""
+    graph = clean_graph()
+    for k, (heard, samples) in enumerate(((None, []), (1.0, []), (None, [Sample(0.5, -1.0, 2, 12.0, 'a')]),
+                                          (None, [Sample(0.5, -1.0, 2, 12.0, 'b')]))):
+        topic = graph.topic('/robot%d/battery_status' % (k + 2))
+        topic.publishers += [gid_endpoint('/robot%d/battery_state_pub' % (k + 2), 'a'),
+                             gid_endpoint('/robot%d/battery_state_pub' % (k + 2), 'b')][:1 + (k >= 2)]
+        topic.samples += samples
+        topic.heard, topic.sampled_s = heard, 3.0
+    graph.topic('/robot9/battery_status').publishers.append(endpoint('/robot9/battery_state_pub'))   # never tried
+    graph.topics['/robot5/battery_status'].publishers.pop(0)   # its one publisher heard: sampled
+    lines, status_code = report(graph)
+    assert status_code == EXIT_FOUND and [line for line in lines if line.startswith('problem:')] == [
+        'problem: /robot4/battery_status: 2 publishers publish this battery (/robot4/battery_state_pub (2 publishers)):'
+        ' a reader sees their readings interleaved; give each battery its own namespace (__ns:=/robotN) or stop all '
+        'but one'], lines
+    missed = [line for line in lines if line.startswith('unsampled:')]
+    assert missed == ['unsampled: 4 battery topic(s) not heard out, so not checked: /robot2/battery_status (not '
+                      'connected to every publisher), /robot3/battery_status (connected for 1.0 s of 3.0), '
+                      '/robot4/battery_status (not connected to every publisher), /robot9/battery_status (not '
+                      'sampled): give a longer --sample (or --wait)'], lines
+    assert lines[-1] == '1 problem(s) found, 4 battery topic(s) unsampled' and 'no problems found' not in lines
 
 
 def test_several_problems_one_line_each_and_exit_1():

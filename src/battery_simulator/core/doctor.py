@@ -13,7 +13,15 @@ line each beginning ``problem:``, naming the topic and the fix:
   subscriber and a volatile publisher);
 - a percentage above 1 (a 0-100 publisher);
 - a current whose sign contradicts ``power_supply_status`` (charging with a negative current);
-- two nodes publishing one battery topic.
+- two publishers of one battery topic, counted by endpoint (ROS 2: its GID; ROS 1: its node, the master
+  keeps one publisher a node and topic), so three publishers that share a node name are three;
+- a voltage or percentage out of its range (a NaN or negative voltage, a percentage below 0);
+- a publisher that went silent: the sampler was connected to it for the whole sampling window and it
+  sent nothing.
+
+A battery topic the sampler could not hear (not connected to every publisher in time) is listed on an
+``unsampled:`` line of its own and counts as a finding (exit 1): the doctor never says "no problems
+found" about what it did not see.
 """
 import math
 from dataclasses import dataclass, field
@@ -45,27 +53,44 @@ EXIT_CLEAN, EXIT_FOUND, EXIT_USAGE = 0, 1, 2
 
 @dataclass(frozen=True)
 class Endpoint:
-    """One node's publisher or subscription on a topic; the QoS fields are None where ROS has none."""
+    """One publisher or subscription on a topic; the QoS fields are None where ROS has none. ``gid``: the
+    endpoint's own id (ROS 2's GID, hex) where ROS has one; else the node is the endpoint."""
     node: str
     type: str
     reliability: str = None
     durability: str = None
     depth: int = None
+    gid: str = None
+
+    @property
+    def key(self):
+        """What tells this endpoint from every other on its topic."""
+        return self.gid if self.gid else self.node
 
 
 @dataclass(frozen=True)
 class Sample:
-    """What one BatteryState message said (NaN where it said nothing)."""
+    """What one BatteryState message said (NaN where it said nothing; voltage None: not read); ``publisher``:
+    the key of the endpoint that sent it (None where the sampler cannot tell)."""
     percentage: float = math.nan
     current: float = math.nan
     power_supply_status: int = 0
+    voltage: float = None
+    publisher: str = None
 
 
 @dataclass
 class Topic:
+    """``heard``: for a sampled battery topic, the seconds the sampler was connected to every publisher of
+    it (None: never to all of them; not set: not sampled at all). ``sampled_s``: the window it asked for."""
     publishers: list = field(default_factory=list)
     subscribers: list = field(default_factory=list)
     samples: list = field(default_factory=list)
+    heard: float = None
+    sampled_s: float = None
+
+    def battery_publishers(self):
+        return [e for e in self.publishers if is_battery_type(e.type)]
 
 
 @dataclass
@@ -155,8 +180,39 @@ def findings(graph):
             found += _qos_mismatches(name, topic)
         found += _two_batteries(name, topic)
         found += _percentage_scale(name, topic)
+        found += _out_of_range(name, topic)
         found += _current_sign(name, topic)
+        found += _silent_publishers(name, topic)
     return found
+
+
+def unsampled(graph):
+    """The published battery topics the sampler did not hear out: not connected to every publisher for the
+    window it asked for ({name: why})."""
+    missed = {}
+    for name in sorted(graph.topics):
+        topic = graph.topics[name]
+        if not topic.battery_publishers() or topic.sampled_s is None or not unheard(topic):
+            continue   # every publisher heard from
+        if topic.heard is None:
+            missed[name] = 'not connected to every publisher'
+        elif topic.heard < topic.sampled_s:
+            missed[name] = 'connected for %.1f s of %.1f' % (topic.heard, topic.sampled_s)
+    return missed
+
+
+def not_sampled_at_all(graph):
+    """Published battery topics the sampler never tried (sampled_s unset)."""
+    return sorted(name for name, topic in graph.topics.items()
+                  if topic.battery_publishers() and topic.sampled_s is None)
+
+
+def unheard(topic):
+    """The battery publishers of ``topic`` that sent no sample."""
+    heard = {sample.publisher for sample in topic.samples}
+    if None in heard:   # the sampler cannot tell publishers apart: the topic spoke
+        return [] if topic.samples else topic.battery_publishers()
+    return [e for e in topic.battery_publishers() if e.key not in heard]
 
 
 def _nodes(endpoints):
@@ -228,13 +284,63 @@ def _qos_mismatches(name, topic):
     return found
 
 
+def _who(endpoints):
+    """'/r6/a, /r6/b' or '/r8/battery_state_pub (3 publishers)': each node once, with its count."""
+    counts = {}
+    for endpoint in endpoints:
+        counts[endpoint.node] = counts.get(endpoint.node, 0) + 1
+    return ', '.join(node if count == 1 else '%s (%d publishers)' % (node, count)
+                     for node, count in sorted(counts.items()))
+
+
 def _two_batteries(name, topic):
-    nodes = sorted({e.node for e in topic.publishers if is_battery_type(e.type)})
-    if len(nodes) < 2:
+    """Counted by endpoint: three publishers in one process may share one node name (a fleet host whose
+    robots all landed in one namespace; a driver started three times with one name)."""
+    publishers = {e.key: e for e in topic.battery_publishers()}
+    if len(publishers) < 2:
         return []
-    return ['problem: %s: %d nodes publish this battery (%s): a reader sees their readings interleaved; '
+    return ['problem: %s: %d publishers publish this battery (%s): a reader sees their readings interleaved; '
             'give each battery its own namespace (__ns:=/robotN) or stop all but one'
-            % (name, len(nodes), ', '.join(nodes))]
+            % (name, len(publishers), _who(publishers.values()))]
+
+
+def _out_of_range(name, topic):
+    """A NaN, infinite or negative voltage (BatteryState's voltage is mandatory), a percentage below 0 (NaN
+    is allowed: unmeasured; above 1 is _percentage_scale's)."""
+    found = []
+    voltages = [s.voltage for s in topic.samples
+                if s.voltage is not None and not (math.isfinite(s.voltage) and s.voltage >= 0.0)]
+    if voltages:
+        found.append('problem: %s: voltage %s is out of its range (sensor_msgs/BatteryState.voltage is mandatory, '
+                     'in volts, >= 0): publish the measured pack voltage (Nav2 and Open-RMF read it)%s'
+                     % (name, _number(voltages[0]), _by(topic, lambda s: s.voltage in voltages)))
+    below = [s.percentage for s in topic.samples if s.percentage < 0.0]
+    if below:
+        found.append('problem: %s: percentage %s is below 0: sensor_msgs/BatteryState.percentage is 0-1, NaN when '
+                     'unmeasured (Nav2\'s IsBatteryLow reads a negative level as empty): publish NaN, not a '
+                     'negative sentinel%s' % (name, _number(min(below)), _by(topic, lambda s: s.percentage < 0.0)))
+    return found
+
+
+def _by(topic, wrong):
+    """' (from /node)' naming who sent the samples ``wrong`` picks, where the sampler can tell."""
+    keys = {s.publisher for s in topic.samples if wrong(s)}
+    senders = [e for e in topic.battery_publishers() if e.key in keys]
+    return ' (from %s)' % _who(senders) if senders and len(topic.battery_publishers()) > 1 else ''
+
+
+def _silent_publishers(name, topic):
+    """A publisher the sampler was connected to for its whole window that sent nothing."""
+    if topic.heard is None or topic.sampled_s is None or topic.heard < topic.sampled_s:
+        return []
+    silent = unheard(topic)
+    if not silent:
+        return []
+    return ['problem: %s: %s sent nothing in %.1f s of sampling (connected): it went silent (a hung driver, a '
+            'stopped timer), publishes slower than that, or has not matched this doctor yet (a host busy with '
+            'discovery): restart it, or give a longer --sample'
+            % (name, _who(silent) if len(topic.battery_publishers()) > 1 or silent[0].gid is None
+               else silent[0].node, topic.heard)]
 
 
 def _percentage_scale(name, topic):
@@ -265,10 +371,24 @@ def _current_sign(name, topic):
 
 
 def report(graph):
-    """(lines to print, exit status): the listing, then the findings, then a summary line."""
+    """(lines to print, exit status): the listing, the findings, the battery topics not heard out on one
+    ``unsampled:`` line (each counts as a finding), then a summary line."""
     problems = findings(graph)
-    summary = ('%d problem(s) found' % len(problems)) if problems else 'no problems found'
-    return listing(graph) + problems + [summary], (EXIT_FOUND if problems else EXIT_CLEAN)
+    missed = unsampled(graph)
+    never = not_sampled_at_all(graph)
+    lines = listing(graph) + problems
+    if missed or never:
+        why = ['%s (%s)' % (name, reason) for name, reason in missed.items()] + \
+              ['%s (not sampled)' % name for name in never]
+        lines.append('unsampled: %d battery topic(s) not heard out, so not checked: %s: give a longer --sample '
+                     '(or --wait)' % (len(why), ', '.join(why)))
+    count = len(problems) + len(missed) + len(never)
+    if not count:
+        return lines + ['no problems found'], EXIT_CLEAN
+    summary = '%d problem(s) found' % len(problems)
+    if missed or never:
+        summary += ', %d battery topic(s) unsampled' % (len(missed) + len(never))
+    return lines + [summary], EXIT_FOUND
 
 
 #: the bounds of --wait and --sample (seconds)

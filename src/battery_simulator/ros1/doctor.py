@@ -5,8 +5,10 @@
 Asks the master (getSystemState, getTopicTypes) for every battery or velocity topic, and each node
 on them (its slave API: getPublications / getSubscriptions, with a bound of ``--wait`` seconds,
 default 2) for the type it really uses (the master keeps one type a topic), samples each battery
-topic for up to ``--sample`` seconds (default 3), then prints core/doctor.py's report. ROS 1 has no
-QoS. Exit 0 when clean, 1 when it found something, 2 for a bad command line or no ROS master.
+topic for ``--sample`` seconds (default 3) from the moment it is connected to every publisher (each
+message credited to the node that sent it), then prints core/doctor.py's report. ROS 1 has no QoS.
+Exit 0 when clean and every battery topic sampled, 1 when it found something or left a topic
+unsampled, 2 for a bad command line or no ROS master.
 """
 import sys
 import time
@@ -15,6 +17,9 @@ import xmlrpc.client
 from battery_simulator.core import doctor
 
 CALLER_ID = '/battery_doctor'
+STEP_S = 0.05
+#: how long past ``--sample`` the doctor waits for its subscribers to connect to every publisher
+MATCH_ALLOWANCE_S = 5.0
 
 
 class _TimeoutTransport(xmlrpc.client.Transport):
@@ -74,22 +79,43 @@ def describe(master, timeout_s):
 
 
 def sample(graph, seconds):
-    """Up to doctor.SAMPLES_PER_TOPIC BatteryState samples of each published battery topic, within ``seconds``."""
+    """Sample every published battery topic: one subscriber each, every message credited to the node that
+    sent it (its connection's callerid: ROS 1 has one publisher a node and topic). A topic is done when each
+    publisher sent a message and it has doctor.SAMPLES_PER_TOPIC; the window of ``seconds`` starts for a
+    topic when the subscriber is connected to every publisher (``Topic.heard``: how long it was, at the
+    end). Ends when every topic is done or heard out, and at the latest ``seconds`` + MATCH_ALLOWANCE_S
+    after the subscribers were made (a publisher that does not answer its connection is never heard)."""
     import rospy
     from sensor_msgs.msg import BatteryState
 
     def _record(msg, topic):
-        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status)))
+        sender = getattr(msg, '_connection_header', {}).get('callerid')
+        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status),
+                                           float(msg.voltage), sender))
 
-    wanted = [(name, topic) for name, topic in sorted(graph.topics.items())
-              if any(doctor.is_battery_type(e.type) for e in topic.publishers)]
-    subscribers = [rospy.Subscriber(name, BatteryState, _record, callback_args=topic, queue_size=10)
-                   for name, topic in wanted]
-    deadline = time.monotonic() + seconds
-    while wanted and time.monotonic() < deadline and not rospy.is_shutdown():
-        if all(len(topic.samples) >= doctor.SAMPLES_PER_TOPIC for _, topic in wanted):
-            break
-        time.sleep(0.05)
+    started = time.monotonic()
+    pending = {}   # name -> [topic, subscriber, publishers, connected since]
+    for name, topic in sorted(graph.topics.items()):
+        publishers = topic.battery_publishers()
+        if not publishers:
+            continue
+        topic.sampled_s = seconds
+        subscriber = rospy.Subscriber(name, BatteryState, _record, callback_args=topic, queue_size=10)
+        pending[name] = [topic, subscriber, len({e.key for e in publishers}), None]
+    subscribers = [entry[1] for entry in pending.values()]
+    hard_deadline = started + seconds + max(seconds, MATCH_ALLOWANCE_S)
+    while pending and not rospy.is_shutdown():
+        time.sleep(STEP_S)
+        now = time.monotonic()
+        for name, entry in list(pending.items()):
+            topic, subscriber, publishers, since = entry
+            if since is None and subscriber.get_num_connections() >= publishers:
+                entry[3] = since = now
+            if since is not None:
+                topic.heard = now - since
+            done = len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not doctor.unheard(topic)
+            if done or (since is not None and now - since >= seconds) or now >= hard_deadline:
+                del pending[name]
     for subscriber in subscribers:
         subscriber.unregister()
 

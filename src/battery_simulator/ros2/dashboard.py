@@ -15,7 +15,12 @@ subscription, so a robot that a fleet host carries on ``/battery_fleet/states``
 is read from there (one message a second for the whole fleet) rather than
 from its own ``battery_status`` and ``battery_simulator/state``; only its
 ``battery_low`` / ``battery_critical`` (transient local, said on a change)
-are subscribed. One timer: the graph scan.
+are subscribed, on a node of their own (``<name>_levels``, no parameters, no
+rosout) spun by an executor of their own, which wakes only when a level
+changes. While a fleet topic has not spoken yet (at most 5 s) no robot's own
+topics are subscribed: its first message says which robots it carries. New
+subscriptions are made 100 at a time, the fleet's first. One timer: the
+graph scan (skipped when the graph has not changed).
 
 :Parameters (read-only, checked at start-up: one line and exit 2 for a bad one):
   - ``host`` (str): address to listen on (default 127.0.0.1; 0.0.0.0: every interface)
@@ -35,6 +40,7 @@ import functools
 import threading
 import time
 
+import rclpy
 import tornado.ioloop
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -51,19 +57,31 @@ from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
                                                 bridge_tornado_logs, chart_library_problem, make_app, server_options,
                                                 start_pushing)
-from battery_simulator.web.dashboard_model import fleet_battery_topic, namespace_of
-from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, NODE_NAME, SERVICE_WAIT_S, battery_values,
-                                                   call_line, finish_settings, fleet_host, listen_problem,
-                                                   ready_line, request_fields, ros1_type_name, service_name,
-                                                   sim_values, subscriptions)
+from battery_simulator.web.dashboard_model import FLEET_STATE_TYPE, fleet_battery_topic, namespace_of
+from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, LEVEL_KINDS, NODE_NAME, SERVICE_WAIT_S,
+                                                   battery_values, call_line, finish_settings, fleet_host,
+                                                   listen_problem, ready_line, request_fields, ros1_type_name,
+                                                   service_name, sim_values, subscriptions)
 
 SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
 #: every subscription takes what its publishers offer: a driver's best-effort battery_status as well as the
 #: simulator's reliable one, the simulator's transient local battery_low (its latest word at once)
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_AVAILABLE,
                  durability=DurabilityPolicy.BEST_AVAILABLE)
+#: the name of the node that holds the level subscriptions: the dashboard's own name and this
+LEVELS_SUFFIX = '_levels'
 #: a battery a fleet message named within this long is read from its host's messages
 FLEET_SERVED_S = 10.0
+#: a fleet topic on the graph that has not spoken yet: until it does (or this long after it was subscribed)
+#: no battery's own topics are subscribed, so that a fleet of 1000 is not subscribed robot by robot first
+#: and dropped again once its host's message names the robots
+FLEET_FIRST_WAIT_S = 5.0
+#: new subscriptions made in one pass of the executor's thread; the rest follow a pass every
+#: BACKLOG_PERIOD_S, so that the fleet's messages are read in between (2000 level topics at 1000 robots)
+SUBSCRIPTIONS_PER_PASS = 100
+BACKLOG_PERIOD_S = 0.05
+#: the order new subscriptions are made in: the fleet first (it brings every card), the levels last
+KIND_ORDER = {'fleet': 0, 'battery': 1, 'state': 2, 'low': 3, 'critical': 3}
 
 
 def gid_key(gid):
@@ -89,6 +107,20 @@ class BatteryDashboard(Node):
         self._hosts = {}           # publisher GID -> node name (fleet hosts)
         self._service_clients = {}         # service name -> Client
         self._service_lock = threading.Lock()
+        self._fleet_heard = set()          # fleet topics that have spoken
+        self._fleet_since = {}             # fleet topic -> monotonic time it was subscribed
+        self._last_graph = None            # (published, served) of the last scan that looked at them
+        self._backlog = []                 # [(key, topic, argument)] still to subscribe, in KIND_ORDER
+        self._backlog_timer = None
+        #: the level topics' subscriptions (two a robot, transient local, said on a change) on a node of their
+        #: own, spun by an executor of their own: they stay out of the wait set that every fleet message and
+        #: timer rebuilds (2000 subscriptions there cost 12 ms a wake-up here)
+        self.levels = rclpy.create_node(self.get_name() + LEVELS_SUFFIX, namespace=self.get_namespace(),
+                                        use_global_arguments=False, start_parameter_services=False,
+                                        enable_rosout=False)
+
+    def _owner(self, kind):
+        return self.levels if kind in LEVEL_KINDS else self
 
     def start(self, hub):
         self.hub = hub
@@ -106,24 +138,60 @@ class BatteryDashboard(Node):
                                       throttle_duration_sec=30.0)
             return
         now = time.monotonic()
-        served = {battery for battery, named in self._fleet_named.items() if now - named < FLEET_SERVED_S}
+        served = frozenset(battery for battery, named in self._fleet_named.items() if now - named < FLEET_SERVED_S)
+        waiting = self._fleet_unheard(published, now)
+        graph = (frozenset(published), served, waiting)   # whatever order the graph lists them in
+        if graph == self._last_graph:   # nothing new on the graph (a fleet of 1000: 15000 topics every scan)
+            return
+        self._last_graph = graph
         wanted, controls = subscriptions(published, served)
+        if waiting:   # only the fleet topics until one speaks: its message says which robots it serves
+            wanted = {key: value for key, value in wanted.items() if key[0] == 'fleet'}
         with self.hub.lock:
             for battery, has_controls in controls.items():
                 self.hub.model.add(battery, time.time(), has_controls=has_controls)
         for key in set(self._subscribed) - set(wanted):
-            self.destroy_subscription(self._subscribed.pop(key))
+            if waiting and key[0] != 'fleet':
+                continue
+            self._owner(key[0]).destroy_subscription(self._subscribed.pop(key))
             if key[0] == 'battery' and key[1] in controls:   # still there: its fleet host's messages bring it
                 with self.hub.lock:
                     self.hub.model.own_topics_dropped(key[1])
-        for key in set(wanted) - set(self._subscribed):
-            topic, argument = wanted[key]
+        self._backlog = sorted(((key,) + wanted[key] for key in set(wanted) - set(self._subscribed)),
+                               key=lambda entry: (KIND_ORDER[entry[0][0]], entry[0][1]))
+        self._subscribe_backlog()
+
+    def _fleet_unheard(self, published, now):
+        """A fleet topic on the graph that has not spoken, subscribed less than FLEET_FIRST_WAIT_S ago."""
+        for topic, topic_type in published:
+            if topic_type == FLEET_STATE_TYPE and topic not in self._fleet_heard:
+                if now - self._fleet_since.setdefault(topic, now) < FLEET_FIRST_WAIT_S:
+                    return True
+        return False
+
+    def _subscribe_backlog(self):
+        """Make up to SUBSCRIPTIONS_PER_PASS of the subscriptions still to make; the rest in the next pass."""
+        batch, self._backlog = self._backlog[:SUBSCRIPTIONS_PER_PASS], self._backlog[SUBSCRIPTIONS_PER_PASS:]
+        for key, topic, argument in batch:
+            if key in self._subscribed:
+                continue
+            if not self.count_publishers(topic):
+                # known only by a subscriber so far: QOS's "best available" would take the strictest policy
+                # (transient local) and never match the volatile publisher that comes later; the next scan
+                # tries again
+                self._last_graph = None
+                continue
             message_type, callback = self._kinds[key[0]]
             if key[0] == 'fleet':   # two arguments: rclpy hands the message's info (its publisher) too
                 callback = functools.partial(lambda argument, msg, info: self._on_fleet(msg, info, argument), argument)
             else:
                 callback = functools.partial(callback, argument=argument)
-            self._subscribed[key] = self.create_subscription(message_type, topic, callback, QOS)
+            self._subscribed[key] = self._owner(key[0]).create_subscription(message_type, topic, callback, QOS)
+        if self._backlog and self._backlog_timer is None:
+            self._backlog_timer = self.create_timer(BACKLOG_PERIOD_S, self._subscribe_backlog, clock=steady_clock())
+        elif not self._backlog and self._backlog_timer is not None:
+            self.destroy_timer(self._backlog_timer)
+            self._backlog_timer = None
 
     # -- callbacks (the executor's thread)
     def _on_battery(self, msg, argument):
@@ -150,8 +218,14 @@ class BatteryDashboard(Node):
         now = time.monotonic()
         with self.hub.lock:
             self.hub.model.on_fleet_message(host_namespace, host, entries, time.time())
-            for name, _ in entries:
-                self._fleet_named[fleet_battery_topic(host_namespace, name)] = now
+        newly_served = False
+        for name, _ in entries:
+            topic = fleet_battery_topic(host_namespace, name)
+            newly_served = newly_served or topic not in self._fleet_named
+            self._fleet_named[topic] = now
+        if fleet not in self._fleet_heard or newly_served:   # its robots' own topics need no subscription
+            self._fleet_heard.add(fleet)
+            self.scan()
 
     def _publisher_of(self, topic, gid):
         """The node that published on ``topic`` with ``gid`` ('' when the graph does not say)."""
@@ -229,12 +303,20 @@ def main(args=None):
         executor.create_task(node.start, hub)   # the first scan and the timer on the executor's thread
         spinner = threading.Thread(target=_spin, args=(executor,), name='dashboard_ros', daemon=True)
         spinner.start()
+        levels_executor = SingleThreadedExecutor()
+        levels_executor.add_node(node.levels)
+        levels_spinner = threading.Thread(target=_spin, args=(levels_executor,), name='dashboard_levels',
+                                          daemon=True)
+        levels_spinner.start()
         node.get_logger().info(ready_line(node.settings))
         try:
             loop.start()
         finally:   # the executor's thread ended before the node goes (else the process aborts at exit)
             executor.shutdown(timeout_sec=2.0)
+            levels_executor.shutdown(timeout_sec=2.0)
             spinner.join(2.0)
+            levels_spinner.join(2.0)
+            node.levels.destroy_node()
             node.destroy_node()
 
 

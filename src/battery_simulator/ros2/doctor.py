@@ -4,9 +4,12 @@
 
 Waits ``--wait`` seconds (default 5) for discovery, lists every battery publisher and every
 subscriber of a battery or velocity topic with its type and QoS (reliability, durability, depth
-where discovery tells it), samples each battery topic for up to ``--sample`` seconds (default 3)
-with a QoS each publisher matches, then prints one line per finding (core/doctor.py's rules).
-Exit 0 when clean, 1 when it found something, 2 for a bad command line or an empty graph.
+where discovery tells it), samples each battery topic (one best-effort volatile subscription, which
+every publisher matches; each message credited to its publisher's GID) for ``--sample`` seconds
+(default 3) from the moment it is matched to every publisher, then prints one line per finding
+(core/doctor.py's rules) and an ``unsampled:`` line for the topics it could not hear out. Exit 0 when
+clean and every battery topic sampled, 1 when it found something or left a topic unsampled, 2 for a
+bad command line or an empty graph.
 """
 import sys
 import time
@@ -14,6 +17,12 @@ import time
 from battery_simulator.core import doctor
 
 STEP_S = 0.05
+#: how long past ``--sample`` the doctor waits for its subscriptions to be matched to every publisher
+#: (discovery of 200 new subscriptions on a busy machine takes seconds)
+MATCH_ALLOWANCE_S = 5.0
+#: during --wait, the battery topics discovery shows are subscribed from this far in, and again every period
+FIRST_LOOK_S = 0.5
+LOOK_PERIOD_S = 1.0
 #: the default discovery wait: Fast DDS announces a participant every 3 s, and one outside another's
 #: initial-peer range (127.0.0.1, the first few participant ids) is found only by that announcement
 #: (2 s missed the test process's endpoints in test_consumers.py, 4 s found them)
@@ -30,7 +39,16 @@ def _endpoint(info):
                                                                                 str(qos.durability.name).lower())
     node = (info.node_namespace.rstrip('/') + '/' + info.node_name) if info.node_name else '(unknown node)'
     # discovery carries no history depth (remote endpoints report 0): unknown, not 0
-    return doctor.Endpoint(node, info.topic_type, reliability, durability, qos.depth or None)
+    return doctor.Endpoint(node, info.topic_type, reliability, durability, qos.depth or None,
+                           gid_text(info.endpoint_gid))
+
+
+def gid_text(gid):
+    """An endpoint's GID as hex, from the graph's endpoint info (a sequence of ints) or a received message's
+    info (a dict with 'data'): the first 16 bytes, what both carry."""
+    if isinstance(gid, dict):
+        gid = gid.get('data', b'')
+    return bytes(gid)[:16].hex() if gid is not None else None
 
 
 def describe(node):
@@ -51,44 +69,78 @@ def describe(node):
     return graph
 
 
-def _sampling_qos(publisher):
-    """A subscription QoS this publisher matches: its own reliability and durability."""
+#: the sampler's QoS: best effort and volatile match every publisher (reliable or not, transient local or not)
+def _sampling_qos():
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=10,
-        reliability=(ReliabilityPolicy.BEST_EFFORT if publisher.reliability == doctor.BEST_EFFORT
-                     else ReliabilityPolicy.RELIABLE),
-        durability=(DurabilityPolicy.TRANSIENT_LOCAL if publisher.durability == doctor.TRANSIENT_LOCAL
-                    else DurabilityPolicy.VOLATILE))
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.VOLATILE)
 
 
-def sample(node, graph, seconds):
-    """Add up to doctor.SAMPLES_PER_TOPIC BatteryState samples to each published battery topic,
-    waiting at most ``seconds``."""
-    import rclpy
-    from sensor_msgs.msg import BatteryState
+class Sampler:
+    """One subscription a published battery topic, made as soon as discovery shows the topic (during
+    ``--wait``: a busy host matching 200 new subscriptions needs those seconds before it sends to them),
+    every message credited to the publisher that sent it (its GID)."""
 
-    def _record(topic, msg):
-        topic.samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status)))
+    def __init__(self, node):
+        self.node = node
+        self.records = {}   # topic name -> {'samples', 'subscription', 'publishers', 'since'}
 
-    subscriptions = []
-    wanted = []
-    for name, topic in sorted(graph.topics.items()):
-        publishers = [e for e in topic.publishers if doctor.is_battery_type(e.type)]
-        kinds = sorted({(e.reliability, e.durability) for e in publishers})
-        for reliability, durability in kinds:
-            qos = _sampling_qos(doctor.Endpoint('', '', reliability, durability))
-            subscriptions.append(node.create_subscription(
-                BatteryState, name, lambda msg, topic=topic: _record(topic, msg), qos))
-        if kinds:
-            wanted.append(topic)
-    deadline = time.monotonic() + seconds
-    while wanted and time.monotonic() < deadline:
-        rclpy.spin_once(node, timeout_sec=STEP_S)
-        if all(len(topic.samples) >= doctor.SAMPLES_PER_TOPIC for topic in wanted):
-            break
-    for subscription in subscriptions:
-        node.destroy_subscription(subscription)
+    def subscribe(self, graph):
+        """Subscribe to every published battery topic of ``graph`` not subscribed yet."""
+        from sensor_msgs.msg import BatteryState
+
+        def _record(samples, msg, info):
+            samples.append(doctor.Sample(float(msg.percentage), float(msg.current), int(msg.power_supply_status),
+                                         float(msg.voltage), gid_text(info.get('publisher_gid'))))
+        for name, topic in sorted(graph.topics.items()):
+            publishers = len({e.key for e in topic.battery_publishers()})
+            if not publishers:
+                continue
+            if name in self.records:
+                self.records[name]['publishers'] = publishers
+                continue
+            samples = []
+            subscription = self.node.create_subscription(
+                BatteryState, name, lambda msg, info, samples=samples: _record(samples, msg, info), _sampling_qos())
+            self.records[name] = {'samples': samples, 'subscription': subscription, 'publishers': publishers,
+                                  'since': None}
+
+    def track(self, now):
+        """Note when each subscription is matched to every publisher its topic has."""
+        for record in self.records.values():
+            if record['since'] is None and record['subscription'].get_publisher_count() >= record['publishers']:
+                record['since'] = now
+
+    def run(self, graph, seconds):
+        """Sample ``graph``'s battery topics: a topic is done when each publisher sent a message and it has
+        doctor.SAMPLES_PER_TOPIC; its window of ``seconds`` starts when its subscription is matched to every
+        publisher (``Topic.heard``: how long, at the end). Ends when every topic is done or heard out, and at
+        the latest ``seconds`` + MATCH_ALLOWANCE_S from now."""
+        import rclpy
+        self.subscribe(graph)
+        pending = {}
+        for name, topic in graph.topics.items():
+            if name in self.records and topic.battery_publishers():
+                topic.sampled_s = seconds
+                topic.samples = self.records[name]['samples']
+                pending[name] = topic
+        hard_deadline = time.monotonic() + seconds + max(seconds, MATCH_ALLOWANCE_S)
+        while pending:
+            rclpy.spin_once(self.node, timeout_sec=STEP_S)
+            now = time.monotonic()
+            self.track(now)
+            for name, topic in list(pending.items()):
+                since = self.records[name]['since']
+                if since is not None:
+                    topic.heard = now - since
+                done = len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not doctor.unheard(topic)
+                if done or (since is not None and now - since >= seconds) or now >= hard_deadline:
+                    del pending[name]
+
+    def close(self):
+        for record in self.records.values():
+            self.node.destroy_subscription(record['subscription'])
+        self.records = {}
 
 
 def _other_nodes(node):
@@ -117,16 +169,24 @@ def main(argv=None):
     code = doctor.EXIT_USAGE
     try:
         node = rclpy.create_node('battery_doctor', start_parameter_services=False)
-        deadline = time.monotonic() + options['wait']
+        sampler = Sampler(node)
+        started = time.monotonic()
+        deadline, next_look = started + options['wait'], started + FIRST_LOOK_S
         while time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=STEP_S)
+            now = time.monotonic()
+            sampler.track(now)
+            if now >= next_look:   # subscribe to what discovery shows so far: matching takes the rest of --wait
+                sampler.subscribe(describe(node))
+                next_look = now + LOOK_PERIOD_S
         if not _other_nodes(node):
             print('battery_doctor: no other node on the ROS 2 graph (ROS_DOMAIN_ID=%s) within %g s: start the '
                   'robot first, or give a longer --wait' % (os.environ.get('ROS_DOMAIN_ID', '0'), options['wait']),
                   file=sys.stderr)
             return
         graph = describe(node)
-        sample(node, graph, options['sample'])
+        sampler.run(graph, options['sample'])
+        sampler.close()
         lines, code = doctor.report(graph)
         print('\n'.join(lines), flush=True)
     except KeyboardInterrupt:

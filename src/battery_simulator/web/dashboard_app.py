@@ -96,6 +96,12 @@ def request_allowed(host_header, origin_header, addresses):
     return origin_header is None or origin_address(origin_header) in addresses
 
 
+def bad_static_path(url_path):
+    """True for a static path with a character no file name of ours has (NUL and the other control
+    characters): refused with 400 before it reaches the file system."""
+    return any(ord(character) < 0x20 or ord(character) == 0x7f for character in url_path)
+
+
 def _number(value, name, low, high, blank_is_nan=False):
     if blank_is_nan and (value is None or value == ''):
         return math.nan
@@ -217,6 +223,16 @@ class _Guard:
         for name, value in SECURITY_HEADERS.items():
             self.set_header(name, value)
 
+    def log_exception(self, typ, value, tb):
+        """Nothing of its own: RequestLog says every refused or failed request, the first at once and the
+        rest as a count (tornado would write a line for each 403 of a path traversal, a traceback for each
+        500). A failure that is not an HTTPError (a defect: no request may cause one) is named in
+        RequestLog's line; its traceback goes to tornado's log at debug level."""
+        if not isinstance(value, tornado.web.HTTPError):
+            self.failure = '%s: %s' % (typ.__name__, value)
+            logging.getLogger('tornado.application').debug('request failed: %s', self.request.uri,
+                                                           exc_info=(typ, value, tb))
+
 
 class PageHandler(_Guard, tornado.web.RequestHandler):
     def initialize(self, page):
@@ -243,6 +259,14 @@ class NotFoundHandler(_Guard, tornado.web.RequestHandler):
 class GuardedStaticHandler(_Guard, tornado.web.StaticFileHandler):
     def set_default_headers(self):
         _Guard.set_default_headers(self)
+
+    def parse_url_path(self, url_path):
+        """400 for a path no file can have (a NUL or another control character: tornado >= 6.5 answered
+        ``/static/%00`` with a traceback and 500); tornado's own checks refuse the rest (403 outside the
+        directory, 404 for no such file)."""
+        if not bad_static_path(url_path):
+            return super().parse_url_path(url_path)
+        raise tornado.web.HTTPError(400)
 
     def set_extra_headers(self, path):
         self.set_header('Cache-Control', 'no-cache')   # a new version of the package shows at once
@@ -373,6 +397,9 @@ class RequestLog:
         text = '%d %s %s' % (status, request.method, request.uri[:200])
         if status == 403:
             text += ' (Host %r, Origin %r)' % (request.headers.get('Host'), request.headers.get('Origin'))
+        failure = getattr(handler, 'failure', None)
+        if failure:
+            text += ' (%s)' % failure[:200]
         if self._quiet:
             self._counts[status] += 1
             self._last = text

@@ -149,6 +149,14 @@ def listen_problem(error, host, port, host_name, port_name):
                                                                           error.strerror or error)
 
 
+def page_url(host, port):
+    """The address a browser opens: an IPv6 host in brackets ('::' -> 'http://[::]:8090/')."""
+    host = host.strip()
+    if ':' in host and not host.startswith('['):
+        host = '[%s]' % host
+    return 'http://%s:%d/' % (host, port)
+
+
 def ready_line(settings):
-    return '%s: http://%s:%d/ (%s)' % (NODE_NAME, settings['host'], settings['port'],
-                                       'controls on' if settings['allow_control'] else 'read-only')
+    return '%s: %s (%s)' % (NODE_NAME, page_url(settings['host'], settings['port']),
+                            'controls on' if settings['allow_control'] else 'read-only')

@@ -114,17 +114,23 @@ function overviewPage() {
     return card;
   }
 
-  function place(topic, card) {
-    const after = [...cards.keys()].filter((other) => other > topic).sort()[0];
-    list.insertBefore(card, after === undefined ? null : cards.get(after).node);
+  // the cards in the server's natural order (robot2 before robot10): each battery's 'order' is a key whose
+  // plain string order is that order (dashboard_model.natural_key)
+  function place(order, card) {
+    let next = null;
+    for (const entry of cards.values()) {
+      if (entry.order > order && (next === null || entry.order < next.order)) next = entry;
+    }
+    list.insertBefore(card, next === null ? null : next.node);
   }
 
   function show(battery) {
     let entry = cards.get(battery.topic);
     if (!entry) {
       const node = makeCard(battery.topic);
-      place(battery.topic, node);
-      entry = {node};
+      const order = battery.order || battery.topic;
+      place(order, node);
+      entry = {node, order};
       cards.set(battery.topic, entry);
     }
     entry.battery = battery;
