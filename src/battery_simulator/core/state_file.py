@@ -1,4 +1,6 @@
-"""A battery's state in a JSON file (``state_file``): read at start, written atomically (no ROS import)."""
+"""A battery's state in a JSON file (``state_file``): read at start, written atomically, held by one battery
+at a time (no ROS import)."""
+import fcntl
 import json
 import os
 import tempfile
@@ -12,10 +14,13 @@ class StateFileError(ValueError):
     """A ``state_file`` that cannot be used: the reason (the caller names the parameter and the path)."""
 
 
-def check_state_file(path, fleet=False):
+def check_state_file(path, fleet=False, holder=None):
     """Check at start that ``path`` can hold a state file (a fleet's when ``fleet``): no file yet, an empty
     one, or a state file of that kind, in a directory it can be written to. Else StateFileError: a file
-    that exists and is not a state file is never written over, and an unwritable path is said once."""
+    that exists and is not a state file is never written over, and an unwritable path is said once.
+
+    With ``holder`` (the battery's or the fleet host's name), the file is then held for ``holder`` until
+    this process ends (hold_state_file): a second battery given the same file is refused."""
     if os.path.isdir(path):
         raise StateFileError('it is a directory')
     if os.path.exists(path) and os.path.getsize(path) > 0:
@@ -34,6 +39,51 @@ def check_state_file(path, fleet=False):
         os.remove(probe)
     except OSError as error:
         raise StateFileError('it cannot be written (%s)' % (error.strerror or error)) from None
+    if holder is not None:
+        hold_state_file(path, holder)
+
+
+#: a state file's lock: this beside it (the state file itself is replaced at every write)
+LOCK_SUFFIX = '.lock'
+_held = {}   # real path of a state file -> the open lock file that holds it (for the process's life)
+
+
+def hold_state_file(path, holder):
+    """Hold ``path`` for ``holder`` while this process runs: an exclusive flock on ``path`` + LOCK_SUFFIX,
+    which names the holder and its process id. The kernel drops the lock when the process ends however it
+    ends, so a battery killed with SIGKILL does not block its restart. StateFileError naming the battery
+    that holds it when another process does (or another holder of this one)."""
+    key = os.path.realpath(path)
+    if key in _held:
+        if _held[key][1] == holder:
+            return
+        raise StateFileError('it is the state file of %s, which runs in this process; give each battery a '
+                             'state file of its own' % _held[key][1])
+    lock_path = path + LOCK_SUFFIX
+    try:
+        stream = open(lock_path, 'a+', encoding='utf-8')
+    except OSError as error:
+        raise StateFileError('its lock %s cannot be opened (%s)' % (lock_path, error.strerror or error)) from None
+    try:
+        fcntl.flock(stream, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        stream.seek(0)
+        named = stream.read().strip() or 'another process (it has not said which yet)'
+        stream.close()
+        raise StateFileError('another battery runs with it: %s; give each battery a state file of its own'
+                             % named) from None
+    stream.seek(0)
+    stream.truncate()
+    stream.write('%s (process %d)\n' % (holder, os.getpid()))
+    stream.flush()
+    _held[key] = (stream, holder)
+
+
+def release_state_file(path):
+    """Let ``path`` go (a test, or a node that ends but not its process); the lock file stays, unheld."""
+    held = _held.pop(os.path.realpath(path), None)
+    if held is not None:
+        held[0].close()
 
 
 def is_state(saved, fleet=False):
