@@ -465,3 +465,59 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
         assert abs(resumed - level) <= 1.0, 'killed at %.2f %%, resumed at %.1f %%:\n%s' % (level, resumed, line)
     finally:
         assert again.stop() == 0, again.output()
+
+
+# -- issue 40 item 6: predicts at once, and a flood beside a lone battery ------------------------------
+
+PREDICTS_AT_ONCE = 40
+ANSWER_WITHIN_S = 10.0
+
+
+def biggest_plan():
+    """The most segments a plan may have, each of its own load (a week; 1.6 s of a worker's CPU here)."""
+    return Predict.Request(duration_s=[6.0] * MAX_SEGMENTS, power_w=[1.0 + 0.5 * (i % 7) for i in range(MAX_SEGMENTS)],
+                           charge_to_percentage=math.nan)
+
+
+def one_hour_plan():
+    """3600 one-second segments of different loads (60 ms of a worker's CPU)."""
+    return Predict.Request(duration_s=[1.0] * 3600, power_w=[1.0 + 0.5 * (i % 7) for i in range(3600)],
+                           charge_to_percentage=math.nan)
+
+
+def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
+    """40 clients ask one battery for one-hour plans at once: each is answered within 10 s, with the plan's
+    answer or busy
+    (success false, a message saying so). Before: 11 answered, 29 never (the service's request queue kept
+    the last 10)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/forty')
+    clients = []
+    try:
+        started(probe, '/forty', process)
+        clients = [probe.node.create_client(Predict, '/forty/battery_simulator/predict')
+                   for _ in range(PREDICTS_AT_ONCE)]
+        assert all(client.wait_for_service(timeout_sec=10.0) for client in clients), 'predict not served'
+        request = one_hour_plan()
+        sent = time.monotonic()
+        futures = [client.call_async(request) for client in clients]
+        answered_at = {}
+        while len(answered_at) < len(futures) and time.monotonic() < sent + ANSWER_WITHIN_S + 20.0:
+            for index, future in enumerate(futures):
+                if future.done() and index not in answered_at:
+                    answered_at[index] = time.monotonic() - sent
+            time.sleep(0.02)
+        kinds = {}
+        for index in answered_at:
+            response = futures[index].result()
+            kind = 'ok' if response.success else 'busy' if 'busy' in response.message else response.message
+            kinds[kind] = kinds.get(kind, 0) + 1
+        assert len(answered_at) == PREDICTS_AT_ONCE, '%d of %d answered within %g s (%s)' % (
+            len(answered_at), PREDICTS_AT_ONCE, ANSWER_WITHIN_S + 20.0, kinds)
+        assert set(kinds) <= {'ok', 'busy'}, 'answers other than the plan\'s or busy: %s' % kinds
+        assert kinds.get('ok', 0) > 0, 'none answered with the plan: %s' % kinds
+        late = sorted(seconds for seconds in answered_at.values() if seconds > ANSWER_WITHIN_S)
+        assert not late, 'answered later than %g s: %s (%s)' % (ANSWER_WITHIN_S, late, kinds)
+    finally:
+        for client in clients:
+            probe.node.destroy_client(client)
+        stop_all(process)
