@@ -6,8 +6,11 @@ import json
 import math
 import os
 import random
+import select
 import signal
 import statistics
+import subprocess
+import sys
 import threading
 import time
 
@@ -223,7 +226,9 @@ def test_a_predict_flood_does_not_delay_another_robot(probe):
             ', '.join('%.2f s' % delay for delay in delays)
         assert 0.8 <= period_s <= 1.2, "robot2's battery_status period during the flood: %.2f s (%d messages)" % (
             period_s, len(arrivals))
-        assert sum(during) > 0, 'the flood went on while measured (%d answers, %d successful)' % (
+        # answered while measured: the plan's answers, or busy (on a loaded machine a plan of the most segments
+        # takes its worker longer than a caller waits, 7 s: the worker goes on computing, the caller hears busy)
+        assert len(during) > 0, 'the flood went on while measured (%d answers, %d successful)' % (
             len(during), sum(during))
     finally:
         stop.set()
@@ -521,3 +526,95 @@ def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
         for client in clients:
             probe.node.destroy_client(client)
         stop_all(process)
+
+
+FLOOD_CLIENTS = 16
+CONTACT_TOGGLES = 8
+
+
+def flood(service, clients):
+    """A predict flood from a process of its own (its work is not the measurer's): ``clients`` clients ask
+    ``service`` for the biggest plans, again as soon as answered, until SIGINT; 'asking' once they ask, the
+    answers' counts (JSON) at the end."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    rclpy.init()
+    node = rclpy.create_node('predict_flood')
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    request = biggest_plan()
+    counts = {'ok': 0, 'busy': 0, 'other': 0}
+    pending = {}
+    proxies = [node.create_client(Predict, service) for _ in range(clients)]
+    for proxy in proxies:
+        proxy.wait_for_service(timeout_sec=30.0)
+    print('asking', flush=True)
+    while not stop.is_set():
+        for proxy in proxies:
+            future = pending.get(proxy)
+            if future is not None and future.done():
+                response = future.result()
+                counts['ok' if response.success else 'busy' if 'busy' in response.message else 'other'] += 1
+                future = None
+            if future is None:
+                pending[proxy] = proxy.call_async(request)
+        executor.spin_once(timeout_sec=0.05)
+    print(json.dumps(counts), flush=True)
+
+
+def contact_delays(probe, ns):
+    """charger_contact -> the status it asks for on ``ns``/battery_status, wall s, CONTACT_TOGGLES times."""
+    contact = probe.node.create_publisher(Bool, ns + '/charger_contact', 10)
+    try:
+        assert wait_until(lambda: contact.get_subscription_count() > 0, 20.0), ns + ' not on charger_contact'
+        delays = []
+        for index in range(CONTACT_TOGGLES):
+            connected = index % 2 == 0
+            since = time.monotonic()
+            contact.publish(Bool(data=connected))
+            msg = probe.wait_for(ns + '/battery_status', BatteryState,
+                                 lambda m, c=connected: (m.power_supply_status == CHARGING) == c, 20.0, since=since)
+            assert msg is not None, '%s did not follow its contact within 20 s' % ns
+            delays.append(time.monotonic() - since)
+            time.sleep(0.1 + 0.2 * random.random())
+        return delays
+    finally:
+        probe.node.destroy_publisher(contact)
+
+
+def test_a_predict_flood_does_not_starve_a_lone_battery(probe):
+    """16 clients in another process flood a lone battery_sim with the biggest plans: its contact ->
+    battery_status stays within max(0.25 s, 5 x) the same battery's without the flood, measured in this
+    run (before: predict's coroutine held the node's callback group, 4.0 s median against 0.008 s)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/lone', '-p', 'time_scale:=1.0', '-p', 'initial_percentage:=50.0')
+    flooder = None
+    try:
+        started(probe, '/lone', process)
+        reference = contact_delays(probe, '/lone')
+        flooder = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--flood', '/lone/battery_simulator/predict',
+                                    str(FLOOD_CLIENTS)], stdout=subprocess.PIPE, text=True)
+        ready, _, _ = select.select([flooder.stdout], [], [], 40.0)
+        assert ready and flooder.stdout.readline().strip() == 'asking', 'the flood did not start'
+        time.sleep(2.0)   # the flood at full strength
+        during = contact_delays(probe, '/lone')
+        flooder.send_signal(signal.SIGINT)
+        out, _ = flooder.communicate(timeout=40.0)
+        counts = json.loads(out.strip().splitlines()[-1])
+        bound = max(0.25, 5.0 * statistics.median(reference))
+        print('contact -> status: %.3f s median alone, %.3f s under the flood (%s)' % (
+            statistics.median(reference), statistics.median(during), counts))
+        assert statistics.median(during) <= bound, \
+            'contact -> status under a flood (%s): %s s; alone: %s s' % (
+                counts, ['%.3f' % d for d in during], ['%.3f' % d for d in reference])
+        assert counts['ok'] + counts['busy'] > 0, 'the flood was answered: %s' % counts
+    finally:
+        if flooder is not None and flooder.poll() is None:
+            flooder.kill()
+            flooder.wait()
+        stop_all(process)
+
+
+if __name__ == '__main__' and sys.argv[1:2] == ['--flood']:
+    flood(sys.argv[2], int(sys.argv[3]))
