@@ -618,3 +618,39 @@ def test_a_predict_flood_does_not_starve_a_lone_battery(probe):
 
 if __name__ == '__main__' and sys.argv[1:2] == ['--flood']:
     flood(sys.argv[2], int(sys.argv[3]))
+
+
+# -- issue 40 item 7: one battery per state file ------------------------------------------------------
+
+def test_a_second_battery_given_a_state_file_in_use_is_refused_naming_the_holder(probe, tmp_path):
+    """Two battery_sims given one state_file: the second ends at start (exit 2) with one line naming the file
+    and the battery that holds it (before: it "resumed from shared.json" the first one's state, and both
+    wrote it). A holder killed with SIGKILL leaves nothing that blocks its restart; a fleet's file likewise."""
+    path = str(tmp_path / 'shared.json')
+    first = NodeProcess('battery_sim', '-r', '__ns:=/s1', '-p', 'state_file:=' + path)
+    second = again = None
+    try:
+        started(probe, '/s1', first)
+        second = NodeProcess('battery_sim', '-r', '__ns:=/s2', '-p', 'state_file:=' + path,
+                             '-p', 'initial_percentage:=30.0')
+        assert second.wait(30.0) == 2, second.output()
+        lines = [line for line in second.output().splitlines() if path in line]
+        assert len(lines) == 1 and '/s1' in lines[0], second.output()
+        first.process.kill()
+        first.wait(10.0)
+        again = NodeProcess('battery_sim', '-r', '__ns:=/s1', '-p', 'state_file:=' + path)
+        started(probe, '/s1', again)
+        assert again.process.poll() is None, again.output()
+    finally:
+        stop_all(*(p for p in (first, second, again) if p is not None))
+    fleet_file = str(tmp_path / 'fleet.json')
+    fleet = NodeProcess('battery_fleet', '-p', 'robots:=1', '-p', 'prefix:=held', '-p', 'state_file:=' + fleet_file)
+    other = None
+    try:
+        started(probe, '/held0', fleet)
+        other = NodeProcess('battery_fleet', '-r', '__node:=battery_fleet_1', '-p', 'robots:=1', '-p', 'first:=1',
+                            '-p', 'prefix:=held', '-p', 'state_file:=' + fleet_file)
+        assert other.wait(30.0) == 2, other.output()
+        assert '/battery_fleet ' in other.output() and fleet_file in other.output(), other.output()
+    finally:
+        stop_all(*(p for p in (fleet, other) if p is not None))
