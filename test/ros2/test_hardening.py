@@ -654,3 +654,28 @@ def test_a_second_battery_given_a_state_file_in_use_is_refused_naming_the_holder
         assert '/battery_fleet ' in other.output() and fleet_file in other.output(), other.output()
     finally:
         stop_all(*(p for p in (fleet, other) if p is not None))
+
+
+# -- issue 40 item 8: connect and disconnect are both said ----------------------------------------------
+
+def test_a_disconnect_right_after_a_connect_is_logged(probe):
+    """The demo's robot touched the dock for 40-140 ms: the battery said "charger connected", and the
+    "disconnected" after it fell under the same 1 s throttle. Each is said (a flood of either is still at
+    most a line a second)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/flick', '-p', 'initial_percentage:=50.0')
+    contact = probe.node.create_publisher(Bool, '/flick/charger_contact', 10)
+    try:
+        started(probe, '/flick', process)
+        assert wait_until(lambda: contact.get_subscription_count() > 0, 20.0), 'not on charger_contact'
+        since = time.monotonic()
+        contact.publish(Bool(data=True))
+        assert probe.wait_for('/flick/battery_status', BatteryState, lambda m: m.power_supply_status == CHARGING,
+                              10.0, since=since) is not None
+        contact.publish(Bool(data=False))
+        assert probe.wait_for('/flick/battery_status', BatteryState, lambda m: m.power_supply_status != CHARGING,
+                              10.0, since=time.monotonic()) is not None
+        assert process.wait_for_output('charger disconnected', 10.0), process.output()
+        assert 'charger connected' in process.output(), process.output()
+    finally:
+        probe.node.destroy_publisher(contact)
+        stop_all(process)
