@@ -6,8 +6,8 @@ ros2/dock_contact.py).
 A robot leaving the dock that pauses within the radius (its controller a few ticks late on a loaded
 machine: the base stops at its cmd_vel timeout, 40-140 ms of wall time at sim_clock speed 240) is not
 on the contacts any more: before, the battery said "charger connected" and charged there once a cycle
-(issue 40). So the contact closes only within LEAVING_M of the closest the robot came since it entered
-the radius.
+(issue 40). So in the outer half of the radius the contact closes only within LEAVING_M of the closest
+the robot came since it entered the radius.
 """
 import math
 
@@ -16,6 +16,8 @@ from battery_simulator.core.settings import Setting
 
 REPEAT_PERIOD_S = 0.5   # ROS time between repeats of the contact (at least once a second)
 LEAVING_M = 0.05        # farther than this from the closest it came within the radius: the robot is leaving
+INNER = 0.5             # within this fraction of the radius the robot stands on the dock whatever it did (the
+                        # demo parks within half of it: one that passed the centre still charges)
 SETTINGS = (
     Setting('dock_x', 0.0, is_number, 'a number (m)', 'the dock in the odom frame, x (m)', False),
     Setting('dock_y', 0.0, is_number, 'a number (m)', 'the dock in the odom frame, y (m)', False),
@@ -48,6 +50,7 @@ class DockContact:
                              'contact stays %s' % (x, y, speed, self.contact))
         distance = math.hypot(x - self._dock['dock_x'], y - self._dock['dock_y'])
         self._closest_m = min(self._closest_m, distance) if distance <= self._dock['radius'] else math.inf
-        contact = in_contact(x, y, speed, **self._dock) and distance <= self._closest_m + LEAVING_M
+        contact = in_contact(x, y, speed, **self._dock) and (distance <= INNER * self._dock['radius'] or
+                                                             distance <= self._closest_m + LEAVING_M)
         changed, self.contact = contact != self.contact, contact
         return contact if changed else None
