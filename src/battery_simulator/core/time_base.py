@@ -25,8 +25,8 @@ Delivery delays (issue 40): a loaded process reads one clock several times
 running, then the other, and may read the first clock once or twice only
 before the second's first reading comes. So a line with no step yet holds its
 first one too (a start costs CONFIRM_READINGS readings before it counts, all
-of it); readings that do not move confirm nothing; a reading on another known
-line while a step is held drops that step (at most one step of time lost).
+of it); a reading on another known line while a step is held drops that step
+(at most one step of time lost).
 test_time_base.py injects such delays deterministically. Measured limits
 (its delivery model, 11 s): at 20x, clocks 600 and 3000 s apart count at most
 1.05 times one clock's time; clocks 40 s apart (within a few updates of each
@@ -117,8 +117,6 @@ class TimeBase:
                                 # time is lost, at most one step; counting it let a second clock's jump count)
         if self._held is not None:
             first, latest, readings, largest = self._held
-            if now == latest:
-                return 0.0                          # the clock did not move: no reading that confirms it
             step = now - latest
             if now >= latest and not self._big(self._line, step, largest):   # on from the held step
                 largest = max(largest, step)
