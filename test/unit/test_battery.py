@@ -69,9 +69,8 @@ def test_a_jump_back_and_a_jump_forward_beyond_the_bound_drain_nothing():
     assert update.time_jump == 'forwards' and update.snapshot.percentage == pytest.approx(before)
     assert 'max_time_jump (3600 s)' in update.time_jump_warning(3600.0)
     assert '/a, /b' in update.time_jump_warning(3600.0, ['/b', '/a'])
-    for clock.now in (50460.0, 50520.0, 50580.0, 50640.0, 50700.0, 50760.0, 50820.0):
-        b.update()                         # honest steps count again, once confirmed: 720 s at 1.5 A
-    assert before - level(b) == pytest.approx(1.5 * 720.0 / 36.0 / b.params.design_capacity_ah, rel=0.02)
+    clock.now = 50460.0                    # an honest step counts again: 360 s at 1.5 A
+    assert before - level(b) == pytest.approx(1.5 * 360.0 / 36.0 / b.params.design_capacity_ah, rel=0.02)
     clock.now = 0.0                        # a simulator not started (yet again): no clock, no jump, no drain
     assert b.update().time_jump is None
 

@@ -23,9 +23,9 @@ should the first one be read again, the jump is owed (not counted twice).
 
 Delivery delays (issue 40): a loaded process reads one clock several times
 running, then the other, and may read the first clock once or twice only
-before the second's first reading comes. So a line with no step yet holds its
-first one too (a start costs CONFIRM_READINGS readings before it counts, all
-of it); a reading on another known line while a step is held drops that step
+before the second's first reading comes. So the start's line holds its first
+steps too (a start costs CONFIRM_READINGS readings before it counts, all of
+it; a restart's line still counts its first MIN_STEPS steps at once); a reading on another known line while a step is held drops that step
 (at most one step of time lost).
 test_time_base.py injects such delays deterministically. Measured limits
 (its delivery model, 11 s): at 20x, clocks 600 and 3000 s apart count at most
@@ -74,6 +74,7 @@ class TimeBase:
         self._zero_is_unset = zero_is_unset
         self._hold_jumps = hold_jumps
         self._lines = []          # known lines, the least recently read first
+        self._first_line = None   # the line of the first reading (the start): it holds its first steps too
         self._line = None         # the line of the previous reading
         self._previous = None     # the previous reading
         self._held = None         # [first, latest, readings, largest step] of a held step from self._line
@@ -171,10 +172,13 @@ class TimeBase:
             now - line.last <= HOLD_FACTOR * line.step
 
     def _big(self, line, step, largest=0.0):
-        """A step to hold: far beyond the line's recent ones (and ``largest``). A line with no step yet (a
-        start, a restart) holds its first one: with nothing to compare it with, a reading of another clock
+        """A step to hold: far beyond the line's recent ones (and ``largest``). The start's line holds its
+        first steps too (a restart's, after MIN_STEPS): with nothing to compare them with, a reading of another clock
         (its first, 600 s ahead, while a loaded process had read the first clock once or twice) cannot be
         told from a step of this one, and counting it drained 600 s at once (issue 40)."""
+        if len(line.steps) < MIN_STEPS and line is not self._first_line:
+            return False   # a restart's line counts its first steps at once, as Part 2 says (no second clock
+                           # unknown by then: the other clock's line was met before the restart)
         return self._hold_jumps and step > HOLD_FACTOR * max(line.steps + [largest])
 
     def _hold(self, now, step):
@@ -192,6 +196,8 @@ class TimeBase:
 
     def _new_line(self, now):
         self._line = _Line(now)
+        if self._first_line is None:
+            self._first_line = self._line
         self._remember(self._line)
 
     def _remember(self, line):
