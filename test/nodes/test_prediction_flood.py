@@ -121,7 +121,8 @@ class TestPredictionFlood(unittest.TestCase):
         self.assertEqual(set(kinds) - {'ok', 'busy'}, set(), 'answers other than the plan\'s or busy: %s' % kinds)
         self.assertGreater(kinds.get('ok', 0), 0, 'none answered with the plan: %s' % kinds)
         slow = [seconds for _, seconds in answers if seconds > ANSWER_WITHIN_S]
-        self.assertFalse(slow, 'answered later than %g s: %s' % (ANSWER_WITHIN_S, ', '.join('%.1f s' % s for s in slow)))
+        self.assertFalse(slow, 'answered later than %g s: %s' % (
+            ANSWER_WITHIN_S, ', '.join('%.1f s' % seconds for seconds in slow)))
 
     def contact_delays(self):
         """charger_contact -> the status it asks for on battery_status, wall s, TOGGLES times."""

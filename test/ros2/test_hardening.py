@@ -593,7 +593,8 @@ def test_a_predict_flood_does_not_starve_a_lone_battery(probe):
     try:
         started(probe, '/lone', process)
         reference = contact_delays(probe, '/lone')
-        flooder = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--flood', '/lone/battery_simulator/predict',
+        flooder = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--flood',
+                                    '/lone/battery_simulator/predict',
                                     str(FLOOD_CLIENTS)], stdout=subprocess.PIPE, text=True)
         ready, _, _ = select.select([flooder.stdout], [], [], 40.0)
         assert ready and flooder.stdout.readline().strip() == 'asking', 'the flood did not start'

@@ -30,8 +30,8 @@ def distance_to_segment(point, a, b):
 def test_every_leg_of_the_patrol_stays_out_of_the_contact_radius():
     """From the start, round the loop (the last waypoint back to the first included), with a margin of the
     waypoints' arrival distance and half a step of the base at speed 240."""
-    legs = [(START, DEFAULT_WAYPOINTS[0])] + [(DEFAULT_WAYPOINTS[k], DEFAULT_WAYPOINTS[(k + 1) % len(DEFAULT_WAYPOINTS)])
-                                             for k in range(len(DEFAULT_WAYPOINTS))]
+    loop = DEFAULT_WAYPOINTS + DEFAULT_WAYPOINTS[:1]
+    legs = [(START, DEFAULT_WAYPOINTS[0])] + [(loop[k], loop[k + 1]) for k in range(len(DEFAULT_WAYPOINTS))]
     margin = patrol_rule.ARRIVED_M + 0.5 * 0.3 * 0.24
     for a, b in legs:
         assert distance_to_segment(DOCK, a, b) > RADIUS_M + margin, 'the leg %s -> %s passes the dock' % (a, b)

@@ -25,8 +25,9 @@ Delivery delays (issue 40): a loaded process reads one clock several times
 running, then the other, and may read the first clock once or twice only
 before the second's first reading comes. So the start's line holds its first
 steps too (a start costs CONFIRM_READINGS readings before it counts, all of
-it; a restart's line still counts its first MIN_STEPS steps at once); a reading on another known line while a step is held drops that step
-(at most one step of time lost).
+it; a restart's line still counts its first MIN_STEPS steps at once), and a
+reading on another known line while a step is held drops that step (at most
+one step of time lost).
 test_time_base.py injects such delays deterministically. Measured limits
 (its delivery model, 11 s): at 20x, clocks 600 and 3000 s apart count at most
 1.05 times one clock's time; clocks 40 s apart (within a few updates of each
@@ -173,9 +174,9 @@ class TimeBase:
 
     def _big(self, line, step, largest=0.0):
         """A step to hold: far beyond the line's recent ones (and ``largest``). The start's line holds its
-        first steps too (a restart's, after MIN_STEPS): with nothing to compare them with, a reading of another clock
-        (its first, 600 s ahead, while a loaded process had read the first clock once or twice) cannot be
-        told from a step of this one, and counting it drained 600 s at once (issue 40)."""
+        first steps too (a restart's holds from MIN_STEPS steps on): with nothing to compare them with, a
+        reading of another clock (its first, 600 s ahead, while a loaded process had read the first clock
+        once or twice) cannot be told from a step of this one, and counting it drained 600 s at once."""
         if len(line.steps) < MIN_STEPS and line is not self._first_line:
             return False   # a restart's line counts its first steps at once, as Part 2 says (no second clock
                            # unknown by then: the other clock's line was met before the restart)

@@ -47,13 +47,15 @@ class BatteryServices:
         # cmd_vel and timers (contact -> battery_status 4.0 s), and requests waiting for it overflowed the
         # request queue (10: 40 predicts at once, 11 answered, 29 never). Here each is taken at once and
         # answered within 10 s (the plan's answer, or busy: prediction_worker's bounds).
-        predict_group = ReentrantCallbackGroup()
+        self._predict_group = ReentrantCallbackGroup()
         node.create_service(Predict, ns + topics.PREDICT, self._predict, qos_profile=PREDICT_QOS,
-                            callback_group=predict_group)
+                            callback_group=self._predict_group)
         # the workers' answers are handed to the waiting requests in the executor's thread (rclpy's futures
-        # are not for other threads: completed there, some requests were never answered)
+        # are not for other threads: completed there, some requests were never answered), woken by a guard
+        # condition made at the first predict (a fleet's executor waits on no more entities until one is asked)
         self._answers = queue.SimpleQueue()
-        self._answers_ready = node.create_guard_condition(self._hand_out_answers, callback_group=predict_group)
+        self._answers_ready = None
+        self._answers_lock = threading.Lock()
 
     def _service(self, response, change):
         """Run ``change()`` (the reply's text) on the battery, publish it, then reply; a refusal replies
@@ -92,6 +94,7 @@ class BatteryServices:
         model, behind_s = self.battery.model_for_prediction_pickled()
         arrays = tuple(_raw(getattr(request, name)) for name in FIELDS)
         answered = Future()
+        answers_ready = self._answers_guard()
 
         def ask():
             try:
@@ -99,7 +102,7 @@ class BatteryServices:
             except (PredictionError, Busy, WorkerFailed) as error:
                 answer = ('refused', str(error))
             self._answers.put((answered, answer))
-            self._answers_ready.trigger()
+            answers_ready.trigger()
         threading.Thread(target=ask, name='predict', daemon=True).start()
         kind, value = await answered
         if kind != 'ok':
@@ -114,6 +117,12 @@ class BatteryServices:
         response.cut_off_at_s, response.charge_time_s = value.cut_off_at_s, value.charge_time_s
         return response
 
+    def _answers_guard(self):
+        with self._answers_lock:
+            if self._answers_ready is None:
+                self._answers_ready = self.node.create_guard_condition(self._hand_out_answers,
+                                                                       callback_group=self._predict_group)
+            return self._answers_ready
 
     def _hand_out_answers(self):
         while True:
