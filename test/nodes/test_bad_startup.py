@@ -7,6 +7,7 @@ before the checks; each check then reads its own node's output."""
 import concurrent.futures
 import itertools
 import os
+import signal
 import socket
 import subprocess
 import tempfile
@@ -170,6 +171,33 @@ class TestBadStartup(unittest.TestCase):
             self.assertIsNone(server.poll(), 'the server refused numeric text (exit %s)' % server.poll())
         finally:
             stop_process(server)
+
+    def start_server(self, namespace, *params):
+        """A server in ``namespace`` (another robot's), waited for until ready; the process."""
+        server = subprocess.Popen(node_command(SERVER) + ['__ns:=' + namespace] + list(params),
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        self.addCleanup(stop_process, server)
+        wait_for(lambda: any(m.name == namespace + '/BatterySimServer' and 'ready' in m.msg
+                             for m in self.log.since(0)) or server.poll() is not None, STARTUP_TIMEOUT_S,
+                 'the server in %s ready' % namespace)
+        self.assertIsNone(server.poll(), 'the server in %s ended (exit %s)' % (namespace, server.poll()))
+        return server
+
+    def test_a_state_file_another_battery_holds_is_refused_naming_it(self):
+        """Issue 40 item 7: two batteries given one state_file: the second stops at start with one line naming
+        the file and the battery that holds it (before: it resumed the first one's state and both wrote it);
+        a holder killed with SIGKILL does not block its restart."""
+        path = os.path.join(CONFIG_DIR, 'shared_state.json')
+        holder = self.start_server('/s1', '_state_file:=' + path)
+        code, output = run_node(SERVER, ['__ns:=/s2', '_state_file:=' + path, '_initial_percentage:=30'])
+        self.assertNotEqual(code, 0, output)   # as every refused start of the ROS 1 server
+        fatal = [line for line in output.splitlines() if 'FATAL' in line]
+        self.assertEqual(len(fatal), 1, 'one fatal line expected:\n%s' % output)
+        self.assertIn(path, fatal[0])
+        self.assertIn('/s1/BatterySimServer', fatal[0], 'the line names the battery that holds the file')
+        os.killpg(holder.pid, signal.SIGKILL)
+        holder.wait()
+        self.start_server('/s1', '_state_file:=' + path)   # the respawn takes the file over
 
     def test_a_bad_value_stops_a_respawning_launch_with_one_line(self):
         # sim.launch respawns the server: a bad value used to print the same FATAL line every 2 s for ever

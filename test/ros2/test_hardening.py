@@ -6,8 +6,11 @@ import json
 import math
 import os
 import random
+import select
 import signal
 import statistics
+import subprocess
+import sys
 import threading
 import time
 
@@ -223,7 +226,9 @@ def test_a_predict_flood_does_not_delay_another_robot(probe):
             ', '.join('%.2f s' % delay for delay in delays)
         assert 0.8 <= period_s <= 1.2, "robot2's battery_status period during the flood: %.2f s (%d messages)" % (
             period_s, len(arrivals))
-        assert sum(during) > 0, 'the flood went on while measured (%d answers, %d successful)' % (
+        # answered while measured: the plan's answers, or busy (on a loaded machine a plan of the most segments
+        # takes its worker longer than a caller waits, 7 s: the worker goes on computing, the caller hears busy)
+        assert len(during) > 0, 'the flood went on while measured (%d answers, %d successful)' % (
             len(during), sum(during))
     finally:
         stop.set()
@@ -465,3 +470,213 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
         assert abs(resumed - level) <= 1.0, 'killed at %.2f %%, resumed at %.1f %%:\n%s' % (level, resumed, line)
     finally:
         assert again.stop() == 0, again.output()
+
+
+# -- issue 40 item 6: predicts at once, and a flood beside a lone battery ------------------------------
+
+PREDICTS_AT_ONCE = 40
+ANSWER_WITHIN_S = 10.0
+
+
+def biggest_plan():
+    """The most segments a plan may have, each of its own load (a week; 1.6 s of a worker's CPU here)."""
+    return Predict.Request(duration_s=[6.0] * MAX_SEGMENTS, power_w=[1.0 + 0.5 * (i % 7) for i in range(MAX_SEGMENTS)],
+                           charge_to_percentage=math.nan)
+
+
+def one_hour_plan():
+    """3600 one-second segments of different loads (60 ms of a worker's CPU)."""
+    return Predict.Request(duration_s=[1.0] * 3600, power_w=[1.0 + 0.5 * (i % 7) for i in range(3600)],
+                           charge_to_percentage=math.nan)
+
+
+def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
+    """40 clients ask one battery for one-hour plans at once: each is answered within 10 s, with the plan's
+    answer or busy
+    (success false, a message saying so). Before: 11 answered, 29 never (the service's request queue kept
+    the last 10)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/forty')
+    clients = []
+    try:
+        started(probe, '/forty', process)
+        clients = [probe.node.create_client(Predict, '/forty/battery_simulator/predict')
+                   for _ in range(PREDICTS_AT_ONCE)]
+        assert all(client.wait_for_service(timeout_sec=10.0) for client in clients), 'predict not served'
+        request = one_hour_plan()
+        sent = time.monotonic()
+        futures = [client.call_async(request) for client in clients]
+        answered_at = {}
+        while len(answered_at) < len(futures) and time.monotonic() < sent + ANSWER_WITHIN_S + 20.0:
+            for index, future in enumerate(futures):
+                if future.done() and index not in answered_at:
+                    answered_at[index] = time.monotonic() - sent
+            time.sleep(0.02)
+        kinds = {}
+        for index in answered_at:
+            response = futures[index].result()
+            kind = 'ok' if response.success else 'busy' if 'busy' in response.message else response.message
+            kinds[kind] = kinds.get(kind, 0) + 1
+        assert len(answered_at) == PREDICTS_AT_ONCE, '%d of %d answered within %g s (%s)' % (
+            len(answered_at), PREDICTS_AT_ONCE, ANSWER_WITHIN_S + 20.0, kinds)
+        assert set(kinds) <= {'ok', 'busy'}, 'answers other than the plan\'s or busy: %s' % kinds
+        assert kinds.get('ok', 0) > 0, 'none answered with the plan: %s' % kinds
+        late = sorted(seconds for seconds in answered_at.values() if seconds > ANSWER_WITHIN_S)
+        assert not late, 'answered later than %g s: %s (%s)' % (ANSWER_WITHIN_S, late, kinds)
+    finally:
+        for client in clients:
+            probe.node.destroy_client(client)
+        stop_all(process)
+
+
+FLOOD_CLIENTS = 16
+CONTACT_TOGGLES = 8
+
+
+def flood(service, clients):
+    """A predict flood from a process of its own (its work is not the measurer's): ``clients`` clients ask
+    ``service`` for the biggest plans, again as soon as answered, until SIGINT; 'asking' once they ask, the
+    answers' counts (JSON) at the end."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    rclpy.init()
+    node = rclpy.create_node('predict_flood')
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    request = biggest_plan()
+    counts = {'ok': 0, 'busy': 0, 'other': 0}
+    pending = {}
+    proxies = [node.create_client(Predict, service) for _ in range(clients)]
+    for proxy in proxies:
+        proxy.wait_for_service(timeout_sec=30.0)
+    print('asking', flush=True)
+    while not stop.is_set():
+        for proxy in proxies:
+            future = pending.get(proxy)
+            if future is not None and future.done():
+                response = future.result()
+                counts['ok' if response.success else 'busy' if 'busy' in response.message else 'other'] += 1
+                future = None
+            if future is None:
+                pending[proxy] = proxy.call_async(request)
+        executor.spin_once(timeout_sec=0.05)
+    print(json.dumps(counts), flush=True)
+
+
+def contact_delays(probe, ns):
+    """charger_contact -> the status it asks for on ``ns``/battery_status, wall s, CONTACT_TOGGLES times."""
+    contact = probe.node.create_publisher(Bool, ns + '/charger_contact', 10)
+    try:
+        assert wait_until(lambda: contact.get_subscription_count() > 0, 20.0), ns + ' not on charger_contact'
+        delays = []
+        for index in range(CONTACT_TOGGLES):
+            connected = index % 2 == 0
+            since = time.monotonic()
+            contact.publish(Bool(data=connected))
+            msg = probe.wait_for(ns + '/battery_status', BatteryState,
+                                 lambda m, c=connected: (m.power_supply_status == CHARGING) == c, 20.0, since=since)
+            assert msg is not None, '%s did not follow its contact within 20 s' % ns
+            delays.append(time.monotonic() - since)
+            time.sleep(0.1 + 0.2 * random.random())
+        return delays
+    finally:
+        probe.node.destroy_publisher(contact)
+
+
+def test_a_predict_flood_does_not_starve_a_lone_battery(probe):
+    """16 clients in another process flood a lone battery_sim with the biggest plans: its contact ->
+    battery_status stays within max(0.25 s, 5 x) the same battery's without the flood, measured in this
+    run (before: predict's coroutine held the node's callback group, 4.0 s median against 0.008 s)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/lone', '-p', 'time_scale:=1.0', '-p', 'initial_percentage:=50.0')
+    flooder = None
+    try:
+        started(probe, '/lone', process)
+        reference = contact_delays(probe, '/lone')
+        flooder = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--flood',
+                                    '/lone/battery_simulator/predict',
+                                    str(FLOOD_CLIENTS)], stdout=subprocess.PIPE, text=True)
+        ready, _, _ = select.select([flooder.stdout], [], [], 40.0)
+        assert ready and flooder.stdout.readline().strip() == 'asking', 'the flood did not start'
+        time.sleep(2.0)   # the flood at full strength
+        during = contact_delays(probe, '/lone')
+        flooder.send_signal(signal.SIGINT)
+        out, _ = flooder.communicate(timeout=40.0)
+        counts = json.loads(out.strip().splitlines()[-1])
+        bound = max(0.25, 5.0 * statistics.median(reference))
+        print('contact -> status: %.3f s median alone, %.3f s under the flood (%s)' % (
+            statistics.median(reference), statistics.median(during), counts))
+        assert statistics.median(during) <= bound, \
+            'contact -> status under a flood (%s): %s s; alone: %s s' % (
+                counts, ['%.3f' % d for d in during], ['%.3f' % d for d in reference])
+        assert counts['ok'] + counts['busy'] > 0, 'the flood was answered: %s' % counts
+    finally:
+        if flooder is not None and flooder.poll() is None:
+            flooder.kill()
+            flooder.wait()
+        stop_all(process)
+
+
+if __name__ == '__main__' and sys.argv[1:2] == ['--flood']:
+    flood(sys.argv[2], int(sys.argv[3]))
+
+
+# -- issue 40 item 7: one battery per state file ------------------------------------------------------
+
+def test_a_second_battery_given_a_state_file_in_use_is_refused_naming_the_holder(probe, tmp_path):
+    """Two battery_sims given one state_file: the second ends at start (exit 2) with one line naming the file
+    and the battery that holds it (before: it "resumed from shared.json" the first one's state, and both
+    wrote it). A holder killed with SIGKILL leaves nothing that blocks its restart; a fleet's file likewise."""
+    path = str(tmp_path / 'shared.json')
+    first = NodeProcess('battery_sim', '-r', '__ns:=/s1', '-p', 'state_file:=' + path)
+    second = again = None
+    try:
+        started(probe, '/s1', first)
+        second = NodeProcess('battery_sim', '-r', '__ns:=/s2', '-p', 'state_file:=' + path,
+                             '-p', 'initial_percentage:=30.0')
+        assert second.wait(30.0) == 2, second.output()
+        lines = [line for line in second.output().splitlines() if path in line]
+        assert len(lines) == 1 and '/s1' in lines[0], second.output()
+        first.process.kill()
+        first.wait(10.0)
+        again = NodeProcess('battery_sim', '-r', '__ns:=/s1', '-p', 'state_file:=' + path)
+        started(probe, '/s1', again)
+        assert again.process.poll() is None, again.output()
+    finally:
+        stop_all(*(p for p in (first, second, again) if p is not None))
+    fleet_file = str(tmp_path / 'fleet.json')
+    fleet = NodeProcess('battery_fleet', '-p', 'robots:=1', '-p', 'prefix:=held', '-p', 'state_file:=' + fleet_file)
+    other = None
+    try:
+        started(probe, '/held0', fleet)
+        other = NodeProcess('battery_fleet', '-r', '__node:=battery_fleet_1', '-p', 'robots:=1', '-p', 'first:=1',
+                            '-p', 'prefix:=held', '-p', 'state_file:=' + fleet_file)
+        assert other.wait(30.0) == 2, other.output()
+        assert '/battery_fleet ' in other.output() and fleet_file in other.output(), other.output()
+    finally:
+        stop_all(*(p for p in (fleet, other) if p is not None))
+
+
+# -- issue 40 item 8: connect and disconnect are both said ----------------------------------------------
+
+def test_a_disconnect_right_after_a_connect_is_logged(probe):
+    """The demo's robot touched the dock for 40-140 ms: the battery said "charger connected", and the
+    "disconnected" after it fell under the same 1 s throttle. Each is said (a flood of either is still at
+    most a line a second)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/flick', '-p', 'initial_percentage:=50.0')
+    contact = probe.node.create_publisher(Bool, '/flick/charger_contact', 10)
+    try:
+        started(probe, '/flick', process)
+        assert wait_until(lambda: contact.get_subscription_count() > 0, 20.0), 'not on charger_contact'
+        since = time.monotonic()
+        contact.publish(Bool(data=True))
+        assert probe.wait_for('/flick/battery_status', BatteryState, lambda m: m.power_supply_status == CHARGING,
+                              10.0, since=since) is not None
+        contact.publish(Bool(data=False))
+        assert probe.wait_for('/flick/battery_status', BatteryState, lambda m: m.power_supply_status != CHARGING,
+                              10.0, since=time.monotonic()) is not None
+        assert process.wait_for_output('charger disconnected', 10.0), process.output()
+        assert 'charger connected' in process.output(), process.output()
+    finally:
+        probe.node.destroy_publisher(contact)
+        stop_all(process)

@@ -64,8 +64,8 @@ MAX_WAITING = 256
 MAX_QUEUED_SEGMENTS = 1_000_000
 #: a job beyond those bounds waits this long (s) for room before it is refused
 ADMIT_S = 1.0
-#: a caller waits this long (s) for its answer at most
-TIMEOUT_S = 15.0
+#: a caller waits this long (s) for its answer at most (then busy): every request answered within 10 s
+TIMEOUT_S = 7.0
 #: a job running longer (s) ends its worker (the longest allowed plan takes about 2 s)
 JOB_TIMEOUT_S = 30.0
 #: a worker that ended is started again at most this often (s): a job that kills it cannot make a loop

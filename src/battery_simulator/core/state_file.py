@@ -1,5 +1,8 @@
-"""A battery's state in a JSON file (``state_file``): read at start, written atomically (no ROS import)."""
+"""A battery's state in a JSON file (``state_file``): read at start, written atomically, held by one battery
+at a time (no ROS import)."""
+import fcntl
 import json
+import math
 import os
 import tempfile
 import time
@@ -12,10 +15,13 @@ class StateFileError(ValueError):
     """A ``state_file`` that cannot be used: the reason (the caller names the parameter and the path)."""
 
 
-def check_state_file(path, fleet=False):
+def check_state_file(path, fleet=False, holder=None):
     """Check at start that ``path`` can hold a state file (a fleet's when ``fleet``): no file yet, an empty
     one, or a state file of that kind, in a directory it can be written to. Else StateFileError: a file
-    that exists and is not a state file is never written over, and an unwritable path is said once."""
+    that exists and is not a state file is never written over, and an unwritable path is said once.
+
+    With ``holder`` (the battery's or the fleet host's name), the file is then held for ``holder`` until
+    this process ends (hold_state_file): a second battery given the same file is refused."""
     if os.path.isdir(path):
         raise StateFileError('it is a directory')
     if os.path.exists(path) and os.path.getsize(path) > 0:
@@ -34,6 +40,51 @@ def check_state_file(path, fleet=False):
         os.remove(probe)
     except OSError as error:
         raise StateFileError('it cannot be written (%s)' % (error.strerror or error)) from None
+    if holder is not None:
+        hold_state_file(path, holder)
+
+
+#: a state file's lock: this beside it (the state file itself is replaced at every write)
+LOCK_SUFFIX = '.lock'
+_held = {}   # real path of a state file -> the open lock file that holds it (for the process's life)
+
+
+def hold_state_file(path, holder):
+    """Hold ``path`` for ``holder`` while this process runs: an exclusive flock on ``path`` + LOCK_SUFFIX,
+    which names the holder and its process id. The kernel drops the lock when the process ends however it
+    ends, so a battery killed with SIGKILL does not block its restart. StateFileError naming the battery
+    that holds it when another process does (or another holder of this one)."""
+    key = os.path.realpath(path)
+    if key in _held:
+        if _held[key][1] == holder:
+            return
+        raise StateFileError('it is the state file of %s, which runs in this process; give each battery a '
+                             'state file of its own' % _held[key][1])
+    lock_path = path + LOCK_SUFFIX
+    try:
+        stream = open(lock_path, 'a+', encoding='utf-8')
+    except OSError as error:
+        raise StateFileError('its lock %s cannot be opened (%s)' % (lock_path, error.strerror or error)) from None
+    try:
+        fcntl.flock(stream, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        stream.seek(0)
+        named = stream.read().strip() or 'another process (it has not said which yet)'
+        stream.close()
+        raise StateFileError('another battery runs with it: %s; give each battery a state file of its own'
+                             % named) from None
+    stream.seek(0)
+    stream.truncate()
+    stream.write('%s (process %d)\n' % (holder, os.getpid()))
+    stream.flush()
+    _held[key] = (stream, holder)
+
+
+def release_state_file(path):
+    """Let ``path`` go (a test, or a node that ends but not its process); the lock file stays, unheld."""
+    held = _held.pop(os.path.realpath(path), None)
+    if held is not None:
+        held[0].close()
 
 
 def is_state(saved, fleet=False):
@@ -64,6 +115,28 @@ SAVE_EVERY_S = 2.0             # ... or this long (wall) has passed
 FLEET_SAVE_PERIOD_S = 0.5      # a fleet's saved states (file, or ROS 1's parameter) are written at most this often,
 FLEET_SAVE_BATTERY_S = 20.0    # and sooner where that is more battery time than this (a resume after SIGKILL
 MIN_FLEET_SAVE_PERIOD_S = 0.05  # within 1 %: 20 s at 1.5 A of 3 Ah is 0.3 %), but not more often than this
+
+
+#: a write asked for this fraction of a period early (a timer's jitter) is made: comparing with the period
+#: exactly skipped every other tick of a timer at the period (1.0 s at x22 for 0.5 s; 0.13 s at x300 for 0.067 s)
+SAVE_EARLY = 0.2
+
+
+class SaveCadence:
+    """When a saved state written every ``period_s`` (wall s) is due, whoever asks (a timer at the period, a
+    loop at another rate): a period after the last write, up to SAVE_EARLY of a period early (so writes are
+    at most (1 + SAVE_EARLY) periods apart when a timer asks at the period, and at most 1 / (1 - SAVE_EARLY)
+    a period)."""
+
+    def __init__(self, period_s):
+        self.period_s = period_s
+        self._written_at = -math.inf
+
+    def due(self, now):
+        return now - self._written_at >= (1.0 - SAVE_EARLY) * self.period_s
+
+    def wrote(self, now):
+        self._written_at = now
 
 
 def fleet_save_period_s(time_scale=1.0):
@@ -119,7 +192,7 @@ class FleetStateFile:
         self._log = log or (lambda text: None)
         self._clock = clock
         self._states = {}
-        self._written_at = -period_s
+        self._cadence = SaveCadence(period_s)
         self._error_at = -WRITE_ERROR_PERIOD_S
         try:
             saved = read_state_file(path)
@@ -133,12 +206,16 @@ class FleetStateFile:
         return _RobotKeeper(self, name)
 
     def write_if_due(self, force=False):
-        if self._states and (force or self._clock() - self._written_at >= self.period_s):
-            self._written_at = self._clock()
+        """Write every robot's state if a write is due (SaveCadence) or ``force``; True when written."""
+        now = self._clock()
+        if self._states and (force or self._cadence.due(now)):
+            self._cadence.wrote(now)
             try:
                 write_state_file(self.path, {'robots': self._states})
             except OSError as error:
                 _write_failed(self, error)
+            return True
+        return False
 
 
 def _write_failed(keeper, error):

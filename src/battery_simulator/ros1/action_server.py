@@ -334,8 +334,10 @@ class BatterySimServer:
                 self._mode_param.set(1 if connected else 0)
                 self._wake_up()
         if changed:
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger %s', source,
-                                    'connected' if connected else 'disconnected')
+            # a format per state: a connect and the disconnect after it are both said (a flood of
+            # either is still at most a line a second)
+            self._log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
+                                    source)
 
 
 class _LatestStateOnConnect(rospy.SubscribeListener):

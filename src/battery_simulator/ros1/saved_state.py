@@ -16,7 +16,7 @@ import time
 import rospy
 
 # the saving rule's figures are the ROS-free state file's (ROS 2 keeps its state with them too)
-from battery_simulator.core.state_file import (SAVE_EVERY_PERCENT, SAVE_EVERY_S, fleet_save_period_s,
+from battery_simulator.core.state_file import (SAVE_EVERY_PERCENT, SAVE_EVERY_S, SaveCadence, fleet_save_period_s,
                                                read_state_file, write_state_file)
 
 FILE_EVERY_S = 10.0        # the state file is written at most this often, and at shutdown
@@ -91,7 +91,8 @@ class FleetStore:
             saved = None
         self._states = saved if isinstance(saved, dict) else {}
         self._changed = False
-        self._written_at = time.monotonic()
+        self._cadence = SaveCadence(self.period_s)
+        self._cadence.wrote(time.monotonic())
 
     def robot(self, name):
         """The store one robot's server uses (load, maybe_save, save_now)."""
@@ -101,9 +102,10 @@ class FleetStore:
         """Write the states if any changed and the period passed (a timer calls this)."""
         with self._lock:
             now = time.monotonic()
-            if not force and (not self._changed or now - self._written_at < self.period_s):
+            if not force and (not self._changed or not self._cadence.due(now)):
                 return
-            states, self._changed, self._written_at = dict(self._states), False, now
+            states, self._changed = dict(self._states), False
+            self._cadence.wrote(now)
         try:
             rospy.set_param(self.param_name, json.dumps(states))   # one string: cheap for the master to store
         except (ConnectionError, OSError) as error:   # master gone: try again next time

@@ -41,10 +41,11 @@ def read_private_settings(settings):
 
 def check_state_file_param(path, name='~state_file', fleet=False):
     """StartupError (one line naming the parameter) for a ``path`` that exists and is not a state file (it is
-    never written over) or that cannot be written; '' (no file) passes."""
+    never written over), that cannot be written or that another battery holds; '' (no file) passes. This
+    node holds it from now on."""
     if path:
         try:
-            check_state_file(path, fleet)
+            check_state_file(path, fleet, holder=rospy.get_name())
         except StateFileError as error:
             raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name(name), path, error)) \
                 from None

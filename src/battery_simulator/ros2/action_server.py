@@ -204,8 +204,10 @@ class BatterySimServer:
     def change_contact(self, connected, source):
         if self.battery.change_contact(connected, source):
             self._write_mode(self.battery.mode)
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger %s', source,
-                                    'connected' if connected else 'disconnected')
+            # a format per state: a connect and the disconnect after it are both said (a flood of
+            # either is still at most a line a second)
+            self._log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
+                                    source)
             self.update(publish_now=True)
 
 

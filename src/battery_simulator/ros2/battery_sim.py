@@ -85,7 +85,7 @@ def check_state_path(node, path, fleet=False):
     """StartupError (one line) for a ``state_file`` that exists and is not a state file, or cannot be written."""
     if path:
         try:
-            check_state_file(path, fleet)
+            check_state_file(path, fleet, holder=node.get_fully_qualified_name())   # held from now on
         except StateFileError as error:
             raise StartupError('parameter %s = %r is invalid: %s' % (parameter_name(node, 'state_file'), path,
                                                                     error)) from None

@@ -8,9 +8,13 @@ to the process's prediction workers (core/prediction_worker.py, as ROS 1's)
 from a thread of its own and waits without blocking the executor, which keeps
 stepping every battery meanwhile.
 """
+import copy
 import math
+import queue
 import threading
 
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.qos import qos_profile_services_default
 from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
@@ -19,6 +23,11 @@ from battery_simulator.core.battery import MOTION_LOAD, BatteryError
 from battery_simulator.core.prediction import FIELDS, MAX_SEGMENTS, PredictionError, too_many_segments
 from battery_simulator.core.prediction_worker import Busy, WorkerFailed
 from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
+
+
+#: predict's request queue: room for a burst between two takes of the executor (the pool's own bound)
+PREDICT_QOS = copy.copy(qos_profile_services_default)
+PREDICT_QOS.depth = prediction_worker.MAX_WAITING
 
 
 class BatteryServices:
@@ -33,7 +42,20 @@ class BatteryServices:
         node.create_service(SetState, ns + topics.SET_STATE, self._set_state)
         node.create_service(Trigger, ns + topics.RESET, self._reset)
         node.create_service(InjectFault, ns + topics.INJECT_FAULT, self._inject_fault)
-        node.create_service(Predict, ns + topics.PREDICT, self._predict)
+        # its own reentrant group: a coroutine holds its callback group until it ends, so in the node's
+        # (mutually exclusive) group one prediction held up every other request and the battery's contact,
+        # cmd_vel and timers (contact -> battery_status 4.0 s), and requests waiting for it overflowed the
+        # request queue (10: 40 predicts at once, 11 answered, 29 never). Here each is taken at once and
+        # answered within 10 s (the plan's answer, or busy: prediction_worker's bounds).
+        self._predict_group = ReentrantCallbackGroup()
+        node.create_service(Predict, ns + topics.PREDICT, self._predict, qos_profile=PREDICT_QOS,
+                            callback_group=self._predict_group)
+        # the workers' answers are handed to the waiting requests in the executor's thread (rclpy's futures
+        # are not for other threads: completed there, some requests were never answered), woken by a guard
+        # condition made at the first predict (a fleet's executor waits on no more entities until one is asked)
+        self._answers = queue.SimpleQueue()
+        self._answers_ready = None
+        self._answers_lock = threading.Lock()
 
     def _service(self, response, change):
         """Run ``change()`` (the reply's text) on the battery, publish it, then reply; a refusal replies
@@ -72,16 +94,15 @@ class BatteryServices:
         model, behind_s = self.battery.model_for_prediction_pickled()
         arrays = tuple(_raw(getattr(request, name)) for name in FIELDS)
         answered = Future()
-        executor = self.node.executor
+        answers_ready = self._answers_guard()
 
         def ask():
             try:
-                answered.set_result(('ok', _in_workers(self._key, model, behind_s, arrays,
-                                                       request.charge_to_percentage)))
+                answer = ('ok', _in_workers(self._key, model, behind_s, arrays, request.charge_to_percentage))
             except (PredictionError, Busy, WorkerFailed) as error:
-                answered.set_result(('refused', str(error)))
-            if executor is not None:
-                executor.wake()
+                answer = ('refused', str(error))
+            self._answers.put((answered, answer))
+            answers_ready.trigger()
         threading.Thread(target=ask, name='predict', daemon=True).start()
         kind, value = await answered
         if kind != 'ok':
@@ -95,6 +116,21 @@ class BatteryServices:
         response.min_voltage_v, response.max_temperature_c = value.min_voltage_v, value.max_temperature_c
         response.cut_off_at_s, response.charge_time_s = value.cut_off_at_s, value.charge_time_s
         return response
+
+    def _answers_guard(self):
+        with self._answers_lock:
+            if self._answers_ready is None:
+                self._answers_ready = self.node.create_guard_condition(self._hand_out_answers,
+                                                                       callback_group=self._predict_group)
+            return self._answers_ready
+
+    def _hand_out_answers(self):
+        while True:
+            try:
+                answered, answer = self._answers.get_nowait()
+            except queue.Empty:
+                return
+            answered.set_result(answer)
 
 
 def _raw(values):

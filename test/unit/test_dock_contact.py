@@ -1,0 +1,79 @@
+"""The demo's dock contact closes at the dock only (issue 40 item 8): the whole patrol path, every leg and
+the way back from the dock, stays out of the contact's radius, and a whole cycle driven by the patrol rule
+on the kinematic base (robot/patrol.py, robot/base.py, robot/dock_contact.py, as both ROS versions run
+them) never closes the contact outside GO_TO_DOCK and CHARGING, at sim_clock's ticks for speed 60 and 240,
+with a controller that now and then misses ticks (the base then holds its last command)."""
+import math
+import random
+
+import pytest
+
+from battery_simulator.robot import patrol as patrol_rule
+from battery_simulator.robot.base import Base
+from battery_simulator.robot.dock_contact import SETTINGS as CONTACT_SETTINGS, DockContact
+from battery_simulator.robot.patrol import DEFAULT_WAYPOINTS, GO_TO_DOCK, CHARGING, GOAL_SUCCEEDED, PATROL, \
+    Patrol, control_step
+
+RADIUS_M = next(s.default for s in CONTACT_SETTINGS if s.name == 'radius')
+MAX_SPEED = next(s.default for s in CONTACT_SETTINGS if s.name == 'max_speed')
+DOCK = (0.0, 0.0)
+START = (1.0, 0.0)   # demo.launch's fake_base x (off the dock)
+
+
+def distance_to_segment(point, a, b):
+    (px, py), (ax, ay), (bx, by) = point, a, b
+    dx, dy = bx - ax, by - ay
+    t = 0.0 if dx == dy == 0.0 else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(ax + t * dx - px, ay + t * dy - py)
+
+
+def test_every_leg_of_the_patrol_stays_out_of_the_contact_radius():
+    """From the start, round the loop (the last waypoint back to the first included), with a margin of the
+    waypoints' arrival distance and half a step of the base at speed 240."""
+    loop = DEFAULT_WAYPOINTS + DEFAULT_WAYPOINTS[:1]
+    legs = [(START, DEFAULT_WAYPOINTS[0])] + [(loop[k], loop[k + 1]) for k in range(len(DEFAULT_WAYPOINTS))]
+    margin = patrol_rule.ARRIVED_M + 0.5 * 0.3 * 0.24
+    for a, b in legs:
+        assert distance_to_segment(DOCK, a, b) > RADIUS_M + margin, 'the leg %s -> %s passes the dock' % (a, b)
+
+
+@pytest.mark.parametrize('tick_s', [0.06, 0.24, 0.6])   # sim_clock at speed 60 and 240 (1000 and 400 ticks/s)
+@pytest.mark.parametrize('seed', range(8))
+def test_a_cycle_closes_the_contact_only_at_the_dock(tick_s, seed):
+    chooser = random.Random(seed)
+    phases = []
+    goal = []
+    patrol = Patrol(DEFAULT_WAYPOINTS, DOCK[0], DOCK[1], 0.3, 0.6, phases.append, lambda: goal.append(True))
+    base = Base(*START, cmd_vel_timeout=0.5)
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    now = 100.0
+    base.step(now)
+    last_control = now
+    low_at = now + chooser.uniform(20.0, 60.0)   # the battery turns low somewhere on the loop
+    charged_at = None
+    patrol.start()
+    closed = []
+    stalled_until = now
+    while now < 400.0 and len([p for p in phases if p == PATROL]) < 2:
+        now += tick_s
+        pose, (linear, _) = base.step(now)
+        changed = contact.update(pose[0], pose[1], linear, 0.0)
+        if changed is True:
+            closed.append((patrol.phase, pose))
+        if stalled_until > now:
+            continue   # the controller misses ticks: the base holds its command up to its timeout, then stands
+        if chooser.random() < 0.05:
+            stalled_until = now + chooser.uniform(1.0, 30.0) * tick_s   # a loaded machine: 40-140 ms at 240x
+            continue
+        step = control_step(last_control, now)
+        last_control = now
+        outcome = None
+        if patrol.phase == CHARGING:
+            charged_at = charged_at or now
+            outcome = GOAL_SUCCEEDED if now - charged_at > 10.0 else None
+        command = patrol.control(pose, now >= low_at, contact.contact, step, outcome)
+        base.command(*command, now)
+    assert phases[:2] == [PATROL, GO_TO_DOCK] and PATROL in phases[2:], 'one whole cycle: %s' % phases
+    away = [(phase, round(math.hypot(*pose[:2]), 3)) for phase, pose in closed if phase not in (GO_TO_DOCK, CHARGING)]
+    assert not away, 'the contact closed away from the dock: %s' % away
+    assert all(math.hypot(*pose[:2]) <= RADIUS_M for phase, pose in closed if phase == GO_TO_DOCK)
