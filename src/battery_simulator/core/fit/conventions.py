@@ -37,6 +37,8 @@ class FitLog:
     turn_now: np.ndarray = None
     source: str = ''
     current_inverted: bool = False
+    #: the series count BatteryState.cell_voltage shows (0: none)
+    cell_count: int = 0
     notes: list = field(default_factory=list)
 
 
@@ -78,7 +80,8 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A:
         raise FitError('%s: the current is constant (%.3f A, spread %.3f A): nothing to identify the resistance '
                        'from; record a log with current steps (drive, stop, charge)' % (name, np.mean(i), np.std(i)))
-    log = FitLog(name=name, time_s=t - t[0], voltage_v=v, current_a=i, source=raw.source, notes=notes)
+    log = FitLog(name=name, time_s=t - t[0], voltage_v=v, current_a=i, source=raw.source, notes=notes,
+                 cell_count=_cell_count(raw, v, notes))
     log.current_inverted = current_is_inverted(t, v, i)
     if log.current_inverted:
         log.current_a = -i
@@ -97,6 +100,23 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if raw.motion_time_s is not None and len(raw.motion_time_s) > 0:
         _motion_at_samples(log, raw, t, cmd_vel_timeout_s)
     return log
+
+
+def _cell_count(raw, voltage, notes):
+    """The series count BatteryState.cell_voltage shows (0: none or not usable); a voltage field that is one
+    cell's while the cells add up to a pack's is said, and the count is not used then."""
+    if not raw.cell_count:
+        return 0
+    sums = np.asarray(raw.cell_sum_v, dtype=float)
+    sums = sums[np.isfinite(sums)]
+    if raw.cell_count > 1 and len(sums):
+        ratio = float(np.median(sums)) / float(np.median(voltage))
+        if ratio > 1.5:
+            notes.append('WARNING: the voltage is %.3g times below the sum of BatteryState.cell_voltage (%d cells): '
+                         'it looks like one cell\'s voltage given as the pack\'s; the series count is fitted from '
+                         'the voltage as logged' % (ratio, raw.cell_count))
+            return 0
+    return raw.cell_count
 
 
 def split_at_gaps(log):

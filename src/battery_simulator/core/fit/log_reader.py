@@ -7,8 +7,10 @@ installed otherwise. Topics are found by type (sensor_msgs/BatteryState; geometr
 or nav_msgs/Odometry for motion) unless named.
 """
 import csv
+import gzip
 import math
 import sys
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,6 +38,9 @@ class RawLog:
     motion_time_s: list = None
     linear_mps: list = None
     angular_radps: list = None
+    #: BatteryState.cell_voltage: how many entries it had (0: none) and, per sample, their sum (NaN: none)
+    cell_count: int = 0
+    cell_sum_v: list = field(default_factory=list)
     #: where the samples came from (topic names, columns)
     source: str = ''
     notes: list = field(default_factory=list)
@@ -55,19 +60,22 @@ def read_log(path, battery_topic=None, motion_topic=None):
         raise FitError('%s: cannot read: %s' % (path, error.strerror)) from None
     if head.startswith(b'#ROSBAG') or head.startswith(b'\x89MCAP') or head.startswith(b'SQLite format'):
         return _read_bag(path, battery_topic, motion_topic)
-    return _read_csv(path)
+    return _read_csv(path, gzipped=head.startswith(b'\x1f\x8b'))
 
 
 # -- CSV ------------------------------------------------------------------------------------------------
 
-def _read_csv(path):
+def _read_csv(path, gzipped=False):
     try:
-        with open(path, newline='', encoding='utf-8-sig') as stream:
+        opener = gzip.open if gzipped else open
+        with opener(path, 'rt', newline='', encoding='utf-8-sig') as stream:
             rows = list(csv.reader(stream))
     except OSError as error:
         raise FitError('%s: cannot read: %s' % (path, error.strerror)) from None
     except UnicodeDecodeError as error:
         raise FitError('%s: not a bag and not a UTF-8 text CSV file (byte %d)' % (path, error.start)) from None
+    except (EOFError, gzip.BadGzipFile, zlib.error) as error:
+        raise FitError('%s: a damaged gzip file: %s' % (path, error)) from None
     except csv.Error as error:
         raise FitError('%s: not a CSV file: %s' % (path, error)) from None
     if not rows:
@@ -242,6 +250,10 @@ def _take(log, is_battery, msgtype, message, received_s):
         log.current_a.append(float(message.current))
         log.temperature_c.append(float(message.temperature))
         log.percentage.append(float(message.percentage))
+        cells = [float(v) for v in getattr(message, 'cell_voltage', ()) if math.isfinite(float(v)) and v > 0]
+        if cells:
+            log.cell_count = max(log.cell_count, len(cells))
+        log.cell_sum_v.append(sum(cells) if cells else math.nan)
         return
     if msgtype.endswith('Odometry'):
         twist = message.twist.twist
