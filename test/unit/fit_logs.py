@@ -361,3 +361,30 @@ def predicted_rmse(config_path, log_csv):
         soc = float(numpy.interp(cell, params.ocv_voltage_v, params.ocv_soc))
     t, v, model, _, _ = replayed_voltage(config_path, log_csv, soc)
     return float(numpy.sqrt(numpy.mean((model - v) ** 2)))
+
+
+def preset_rmse(log_csv, preset_name, cells_series, cells_parallel, holdout=0.4):
+    """mV per cell of the held-out part of ``log_csv`` replayed with the unfitted preset (as a pack of
+    ``cells_series`` x ``cells_parallel``), from the SOC the logged percentage or the first voltage gives."""
+    import tempfile
+    import yaml
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.parameters import preset
+    params = preset(preset_name)
+    raw = read_log(log_csv)
+    pct = numpy.asarray(raw.percentage, dtype=float)
+    if numpy.isfinite(pct[:1]).all():
+        soc = float(pct[0]) / (100.0 if numpy.nanmax(pct) > 1.5 else 1.0)
+    else:
+        soc = float(numpy.interp(float(raw.voltage_v[0]) / cells_series, params.ocv_voltage_v, params.ocv_soc))
+    limit = max(abs(float(numpy.nanmin(raw.current_a))), abs(float(numpy.nanmax(raw.current_a)))) / cells_parallel
+    with tempfile.NamedTemporaryFile('w', suffix='.yaml', delete=False) as stream:
+        yaml.safe_dump({'preset': preset_name, 'cells_series': cells_series, 'cells_parallel': cells_parallel,
+                        'cell_max_discharge_current_a': max(params.cell_max_discharge_current_a, 2 * limit),
+                        'cell_max_charge_current_a': max(params.cell_max_charge_current_a, 2 * limit)}, stream)
+    try:
+        t, v, model, _, _ = replayed_voltage(stream.name, log_csv, soc)
+    finally:
+        os.remove(stream.name)
+    held = t > t[-1] * (1.0 - holdout)
+    return 1000.0 * float(numpy.sqrt(numpy.mean((model - v)[held] ** 2))) / cells_series

@@ -49,6 +49,8 @@ MILLIAMPERES_PER_VOLT = 60.0
 MILLIVOLTS_V = 1500.0
 #: a log whose largest current is below this C-rate while sampled this far apart has stamps in ms
 MILLISECONDS_C_RATE, MILLISECONDS_PERIOD_S = 0.01, 10.0
+#: the fitted ambient temperature is used when its uncertainty is below this, K (else the logged median)
+AMBIENT_SIGMA_K = 5.0
 #: the datasheet currents are raised to this many times the fitted part's largest
 LIMIT_MARGIN = 2.0
 #: how far a known capacity (log) or starting SOC may move in the fit
@@ -1053,9 +1055,23 @@ def _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kep
     rmse = float(np.sqrt(np.mean(solution.fun ** 2)))
     sigmas = _jacobian_sigmas(solution, rmse)
     heat.update(ambient=float(solution.x[0]), capacity=math.exp(solution.x[1]), transfer=math.exp(solution.x[2]))
+    if not (sigmas[0] < AMBIENT_SIGMA_K and sigmas[2] < 1.0):   # also NaN: the logs do not tell the ambient
+        ambient = float(np.median(np.concatenate([log.temperature_c[mask] for log, mask, _ in pairs])))
+        transfer = math.log(p.cell_heat_transfer_w_per_k)
+        solution = least_squares(lambda z: residuals([ambient, z[0], transfer]), [solution.x[1]],
+                                 bounds=([math.log(0.1)], [math.log(1e6)]), x_scale='jac', max_nfev=50)
+        rmse = float(np.sqrt(np.mean(solution.fun ** 2)))
+        capacity_sigma = _jacobian_sigmas(solution, rmse)[0]
+        kept['cell_heat_transfer_w_per_k'] = ('the logged temperature does not tell the transfer to ambient from '
+                                              'the ambient (the fit gave %.3g +- %.2g degC): the ambient set to the '
+                                              'median logged temperature' % (heat['ambient'], sigmas[0]))
+        heat.update(ambient=ambient, capacity=math.exp(solution.x[0]), transfer=p.cell_heat_transfer_w_per_k)
+        sigmas = [0.0, capacity_sigma, math.inf]
     for name, value, sigma in (('ambient_temperature_c', heat['ambient'], sigmas[0]),
                                ('cell_heat_capacity_j_per_k', heat['capacity'], heat['capacity'] * sigmas[1]),
                                ('cell_heat_transfer_w_per_k', heat['transfer'], heat['transfer'] * sigmas[2])):
+        if name in kept:
+            continue
         if name != 'ambient_temperature_c' and not sigma < value:   # also NaN
             kept[name] = 'the fit gave %.3g +- %.2g: its uncertainty exceeds its value' % (value, sigma)
             heat['capacity' if 'capacity' in name else 'transfer'] = getattr(p, name)
