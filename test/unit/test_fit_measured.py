@@ -52,3 +52,79 @@ def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
 
 #: the DST's last 40 % (down to 2.0 V) replayed with the logged current (see docs/fit.md for why not lower)
 LFP_HELD_MV = 70.0
+
+
+# -- units, the idle term, a user's files ----------------------------------------------------------------
+
+@pytest.fixture(scope='module')
+def robot_csv(tmp_path_factory):
+    params = fit_logs.robot_params()
+    samples, commands = fit_logs.simulate(params, duration_s=2400.0, seed=3)
+    directory = tmp_path_factory.mktemp('robot')
+    path = str(directory / 'robot.csv')
+    fit_logs.write_csv(path, samples, commands)
+    return params, path
+
+
+def _scaled(path, out, column, factor):
+    lines = open(path).read().splitlines()
+    header = lines[0].split(',')
+    index = header.index(column)
+    with open(out, 'w') as stream:
+        stream.write(lines[0] + '\n')
+        for line in lines[1:]:
+            cells = line.split(',')
+            cells[index] = '%.6f' % (float(cells[index]) * factor)
+            stream.write(','.join(cells) + '\n')
+    return out
+
+
+@pytest.mark.parametrize('column, unit', [('current', 'milliamperes'), ('time', 'milliseconds'),
+                                          ('voltage', 'millivolts')])
+def test_a_log_in_the_wrong_unit_is_one_line_naming_it(column, unit, robot_csv, tmp_path, capsys):
+    _, path = robot_csv
+    log = _scaled(path, str(tmp_path / 'scaled.csv'), column, 1000.0)
+    output = str(tmp_path / 'out.yaml')
+    with pytest.raises(SystemExit) as stopped:
+        fit_cli.main([log, '-o', output])
+    message = str(stopped.value.code)
+    assert stopped.value.code != 0 and unit in message and '\n' not in message, message
+    assert not os.path.exists(output)
+
+
+def test_one_idle_term_is_fitted_and_said(robot_csv, tmp_path, capsys):
+    params, path = robot_csv
+    output = str(tmp_path / 'out.yaml')
+    fit_cli.main([path, '-o', output])
+    report = capsys.readouterr().out
+    assert 'one idle term' in report, report
+    from battery_simulator.core.parameters import load_yaml
+    fitted = load_yaml(output)
+    assert (fitted.load_current_a > 0) != (fitted.load_power_w > 0), 'exactly one idle term: %g A, %g W' % (
+        fitted.load_current_a, fitted.load_power_w)
+    idle_w = fitted.load_current_a * 18.5 + fitted.load_power_w
+    assert idle_w == pytest.approx(params.load_current_a * 18.5, rel=0.2), 'the idle draw %.1f W' % idle_w
+
+
+def test_a_users_files_are_checked_before_the_fit_and_left_alone(robot_csv, tmp_path, capsys):
+    _, path = robot_csv
+    output = str(tmp_path / 'out.yaml')
+    part = output + '.part'
+    with open(part, 'w') as stream:
+        stream.write('my own notes\n')
+    profiles = tmp_path / 'profiles'
+    profiles.mkdir()
+    existing = profiles / 'profile_1_robot_csv.csv'
+    existing.write_text('mine\n')
+    with pytest.raises(SystemExit) as stopped:   # an existing profile: refused before the fit, nothing written
+        fit_cli.main([path, '-o', output, '--profiles', str(profiles)])
+    assert stopped.value.code != 0 and 'profile_1_robot_csv.csv' in str(stopped.value.code)
+    assert existing.read_text() == 'mine\n' and not os.path.exists(output)
+    fit_cli.main([path, '-o', output])
+    assert open(part).read() == 'my own notes\n', 'a user\'s OUT.yaml.part is never written over or deleted'
+    assert os.path.exists(output)
+    for bad in (['-o', '/sys/out.yaml'], ['-o', output, '--profiles', '/sys/profiles'],
+                ['-o', output, '--profiles', path]):
+        with pytest.raises(SystemExit) as stopped:
+            fit_cli.parse_arguments([path] + bad)   # the arguments, before any fit
+        assert stopped.value.code == 2

@@ -75,8 +75,10 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
                        % (name, len(t), t[-1] - t[0] if len(t) else 0.0, MIN_SAMPLES, MIN_SPAN_S))
     period = float(np.median(np.diff(t)))
     if period > GAP_S:   # every sample a pause: stamps in ns or ms (ROS stamps as integers), not a battery log
-        raise FitError('%s: the samples are %.3g s apart (median): the time column must be in seconds '
-                       '(a stamp in nanoseconds is 1e9 times too large)' % (name, period))
+        unit = next((unit for unit, factor in (('milliseconds', 1e3), ('microseconds', 1e6), ('nanoseconds', 1e9))
+                     if period / factor <= GAP_S), 'nanoseconds')
+        raise FitError('%s: the samples are %.3g s apart (median): the time looks like %s; the time column must be '
+                       'in seconds' % (name, period, unit))
     if np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A:
         raise FitError('%s: the current is constant (%.3f A, spread %.3f A): nothing to identify the resistance '
                        'from; record a log with current steps (drive, stop, charge)' % (name, np.mean(i), np.std(i)))
