@@ -380,11 +380,13 @@ def preset_rmse(log_csv, preset_name, cells_series, cells_parallel, holdout=0.4)
     limit = max(abs(float(numpy.nanmin(raw.current_a))), abs(float(numpy.nanmax(raw.current_a)))) / cells_parallel
     with tempfile.NamedTemporaryFile('w', suffix='.yaml', delete=False) as stream:
         yaml.safe_dump({'preset': preset_name, 'cells_series': cells_series, 'cells_parallel': cells_parallel,
+                        'charge_current_a': params.charge_current_a * cells_parallel,
+                        'load_current_a': params.load_current_a * cells_parallel,
                         'cell_max_discharge_current_a': max(params.cell_max_discharge_current_a, 2 * limit),
                         'cell_max_charge_current_a': max(params.cell_max_charge_current_a, 2 * limit)}, stream)
     try:
         t, v, model, _, _ = replayed_voltage(stream.name, log_csv, soc)
     finally:
         os.remove(stream.name)
-    held = t > t[-1] * (1.0 - holdout)
+    held = t >= t[-1] * (1.0 - holdout)
     return 1000.0 * float(numpy.sqrt(numpy.mean((model - v)[held] ** 2))) / cells_series

@@ -15,6 +15,8 @@ MIN_SAMPLES = 20
 MIN_SPAN_S = 60.0
 #: a pause in the samples longer than this (and than GAP_FACTOR sampling periods) splits a log in two
 GAP_S, GAP_FACTOR = 600.0, 20.0
+#: a log of more samples than this is thinned to about this many (the charge kept): any log within minutes
+MAX_SAMPLES = 150000
 #: a current whose standard deviation is below this (after the sensor's noise) has no steps, A
 MIN_CURRENT_SPREAD_A = 0.02
 
@@ -73,6 +75,8 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_SPAN_S:
         raise FitError('%s: too short to fit: %d usable samples over %.0f s (at least %d samples over %.0f s)'
                        % (name, len(t), t[-1] - t[0] if len(t) else 0.0, MIN_SAMPLES, MIN_SPAN_S))
+    if len(t) > MAX_SAMPLES:
+        t, v, i, temp, pct = _decimated(t, v, i, temp, pct, notes)
     period = float(np.median(np.diff(t)))
     if period > GAP_S:   # every sample a pause: stamps in ns or ms (ROS stamps as integers), not a battery log
         unit = next((unit for unit, factor in (('milliseconds', 1e3), ('microseconds', 1e6), ('nanoseconds', 1e9))
@@ -119,6 +123,19 @@ def _cell_count(raw, voltage, notes):
                          'the voltage as logged' % (ratio, raw.cell_count))
             return 0
     return raw.cell_count
+
+
+def _decimated(t, v, i, temp, pct, notes):
+    """Every step-th sample, the current the mean over each new interval after it (the charge counted as the
+    replay counts it is kept), the rest as sampled; said in ``notes``."""
+    step = int(np.ceil(len(t) / MAX_SAMPLES))
+    charge = np.concatenate([[0.0], np.cumsum(i[:-1] * np.diff(t))])
+    picked = np.arange(0, len(t), step)
+    span = np.diff(t[picked])
+    current = np.concatenate([np.diff(charge[picked]) / np.where(span > 0, span, 1.0), [i[picked[-1]]]])
+    notes.append('NOTE: decimated: %d samples thinned to every %dth (%d), the current averaged over each new '
+                 'interval (the charge kept): every figure is the thinned log\'s' % (len(t), step, len(picked)))
+    return t[picked], v[picked], current, temp[picked], pct[picked]
 
 
 def split_at_gaps(log):
@@ -180,8 +197,8 @@ def _motion_at_samples(log, raw, t_abs, timeout_s):
     mt = np.asarray(raw.motion_time_s, dtype=float)
     order = np.argsort(mt, kind='stable')
     mt = mt[order]
-    speed = np.asarray(raw.linear_mps, dtype=float)[order]
-    turn = np.asarray(raw.angular_radps, dtype=float)[order]
+    speed = np.abs(np.asarray(raw.linear_mps, dtype=float))[order]
+    turn = np.abs(np.asarray(raw.angular_radps, dtype=float))[order]
     good = np.isfinite(mt) & np.isfinite(speed) & np.isfinite(turn)
     mt, speed, turn = mt[good], speed[good], turn[good]
     if len(mt) == 0:

@@ -152,7 +152,18 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
                            warnings=these_warnings, logs=logs, initial_soc=list(this_electrical.soc0),
                            fit_masks=masks)
         built.append((replayed_fit_rmse(result), index, result))
-        progress(0.9 + 0.05 * index, 'the OCV curve checked by replay')
+        progress(0.9 + 0.03 * index, 'the OCV curve checked by replay')
+        if params.ocv_charge_voltage_v:   # the same without hysteresis: a sensor's noise at rest moves it
+            single = replace(result, params=replace(params, ocv_charge_voltage_v=()), fitted=dict(these_fitted),
+                             warnings=list(these_warnings))
+            single.fitted['ocv_charge_voltage_v'] = Fitted((), 'no hysteresis: the replay of the fitted part is '
+                                                           'closer without the preset\'s charge branch')
+            built.append((replayed_fit_rmse(single), index, single))
+    best_of = {}
+    for item in built:   # per OCV kind, with or without hysteresis, the one the replay prefers
+        if item[1] not in best_of or item[0] < best_of[item[1]][0]:
+            best_of[item[1]] = item
+    built = [best_of[index] for index in sorted(best_of)]
     if len(built) > 1:
         (plain_rmse, _, plain_result), (curve_rmse, _, curve_result) = built
         if curve_rmse < plain_rmse:
@@ -761,9 +772,9 @@ def _percentage_capacity(logs, masks):
     if np.ptp(target) < PERCENTAGE_SPAN:
         return None
     values = np.linalg.lstsq(np.vstack(rows), target, rcond=None)[0]
-    if not values[-1] > 0 or not all(0.0 <= v <= 1.0 for v in values[:-1]):
+    if not values[-1] > 0 or not all(-0.02 <= v <= 1.02 for v in values[:-1]):
         return None
-    return 1.0 / values[-1], [float(v) for v in values[:-1]]
+    return 1.0 / values[-1], [float(min(max(v, 0.0), 1.0)) for v in values[:-1]]
 
 
 def _cross_validated(design, target, fold, smooth, smooth_target):

@@ -11,6 +11,7 @@ import gzip
 import math
 import sys
 import zlib
+from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,10 +67,36 @@ def read_log(path, battery_topic=None, motion_topic=None):
 # -- CSV ------------------------------------------------------------------------------------------------
 
 def _read_csv(path, gzipped=False):
+    """Streamed into arrays of doubles (a CSV of ten million rows stays within memory)."""
+    opener = gzip.open if gzipped else open
     try:
-        opener = gzip.open if gzipped else open
         with opener(path, 'rt', newline='', encoding='utf-8-sig') as stream:
-            rows = list(csv.reader(stream))
+            rows = csv.reader(stream)
+            try:
+                header = [name.strip().lower() for name in next(rows)]
+            except StopIteration:
+                raise FitError('%s: empty file (a CSV needs a header: %s)' % (path, ', '.join(CSV_COLUMNS))) from None
+            missing = [name for name in CSV_COLUMNS if name not in header]
+            if missing:
+                raise FitError('%s line 1: the header must name the columns %s (and optionally %s), got %s'
+                               % (path, ', '.join(CSV_COLUMNS), ', '.join(CSV_OPTIONAL),
+                                  ','.join(header)[:200] or 'nothing'))
+            columns = [(name, header.index(name)) for name in CSV_COLUMNS + CSV_OPTIONAL if name in header]
+            values = {name: array('d') for name, _ in columns}
+            appends = [(values[name].append, index, name) for name, index in columns]
+            width = max(index for _, index in columns) + 1
+            for line, row in enumerate(rows, start=2):
+                if len(row) < width:
+                    if not row or all(not cell.strip() for cell in row):
+                        continue
+                    row = row + [''] * (width - len(row))
+                for append, index, name in appends:
+                    text = row[index]
+                    try:
+                        append(float(text) if text.strip() else math.nan)
+                    except ValueError:
+                        raise FitError('%s line %d: column "%s" must be a number (or empty / nan), got %r'
+                                       % (path, line, name, text.strip()[:40])) from None
     except OSError as error:
         raise FitError('%s: cannot read: %s' % (path, error.strerror)) from None
     except UnicodeDecodeError as error:
@@ -78,36 +105,17 @@ def _read_csv(path, gzipped=False):
         raise FitError('%s: a damaged gzip file: %s' % (path, error)) from None
     except csv.Error as error:
         raise FitError('%s: not a CSV file: %s' % (path, error)) from None
-    if not rows:
-        raise FitError('%s: empty file (a CSV needs a header: %s)' % (path, ', '.join(CSV_COLUMNS)))
-    header = [name.strip().lower() for name in rows[0]]
-    missing = [name for name in CSV_COLUMNS if name not in header]
-    if missing:
-        raise FitError('%s line 1: the header must name the columns %s (and optionally %s), got %s'
-                       % (path, ', '.join(CSV_COLUMNS), ', '.join(CSV_OPTIONAL), ','.join(header)[:200] or 'nothing'))
-    columns = {name: header.index(name) for name in CSV_COLUMNS + CSV_OPTIONAL if name in header}
-    values = {name: [] for name in columns}
-    for line, row in enumerate(rows[1:], start=2):
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        for name, index in columns.items():
-            text = row[index].strip() if index < len(row) else ''
-            try:
-                values[name].append(float(text) if text else math.nan)
-            except ValueError:
-                raise FitError('%s line %d: column "%s" must be a number (or empty / nan), got %r'
-                               % (path, line, name, text[:40])) from None
-    log = RawLog(name=str(path), source='CSV columns ' + ', '.join(columns))
+    log = RawLog(name=str(path), source='CSV columns ' + ', '.join(name for name, _ in columns))
     log.time_s = values['time']
     log.voltage_v = values['voltage']
     log.current_a = values['current']
     count = len(log.time_s)
-    log.temperature_c = values.get('temperature', [math.nan] * count)
-    log.percentage = values.get('percentage', [math.nan] * count)
+    log.temperature_c = values.get('temperature', array('d', [math.nan]) * count)
+    log.percentage = values.get('percentage', array('d', [math.nan]) * count)
     if 'linear_x' in values or 'angular_z' in values:
-        log.motion_time_s = list(log.time_s)
-        log.linear_mps = [abs(v) for v in values.get('linear_x', [0.0] * count)]
-        log.angular_radps = [abs(v) for v in values.get('angular_z', [0.0] * count)]
+        log.motion_time_s = log.time_s
+        log.linear_mps = values.get('linear_x', array('d', [0.0]) * count)
+        log.angular_radps = values.get('angular_z', array('d', [0.0]) * count)
     return log
 
 
