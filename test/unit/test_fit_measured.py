@@ -128,3 +128,24 @@ def test_a_users_files_are_checked_before_the_fit_and_left_alone(robot_csv, tmp_
         with pytest.raises(SystemExit) as stopped:
             fit_cli.parse_arguments([path] + bad)   # the arguments, before any fit
         assert stopped.value.code == 2
+
+
+def test_the_chemistry_key_selects_the_lfp_tables_and_leaves_li_ion_alone():
+    from battery_simulator.core.lfp_tables import LFP_OCV_VOLTAGE_V
+    from battery_simulator.core.parameters import ParameterError, from_mapping, preset
+    hg2 = preset('lg_hg2_cell')
+    assert hg2.chemistry == 'li-ion' and from_mapping({'preset': 'lg_hg2_cell'}) == hg2
+    lfp = from_mapping({'preset': 'lg_hg2_cell', 'chemistry': 'lfp'})
+    assert lfp.ocv_voltage_v == LFP_OCV_VOLTAGE_V and lfp.ocv_charge_voltage_v > lfp.ocv_voltage_v
+    assert (lfp.cell_cutoff_voltage_v, lfp.cell_charge_voltage_v) == (2.0, 3.6)
+    a123 = preset('a123_lfp_cell')
+    assert a123.chemistry == 'lfp' and a123.cell_cutoff_voltage_v == 2.0
+    flat = [v for s, v in zip(a123.ocv_soc, a123.ocv_voltage_v) if 0.1 <= s <= 0.9]
+    assert 3.15 <= min(flat) and max(flat) <= 3.4, 'LFP\'s flat OCV: %.3f-%.3f V' % (min(flat), max(flat))
+    with pytest.raises(ParameterError):
+        from_mapping({'preset': 'lg_hg2_cell', 'chemistry': 'lead'})
+
+
+def test_chemistry_option_lfp_is_used_as_given(tmp_path):
+    figures = fit_logs.fit_and_score(A123, str(tmp_path), cells=1, extra=['--chemistry', 'lfp'])
+    assert 'over the a123_lfp_cell preset' in figures['report'] and 'chemistry   ' not in figures['report']

@@ -51,6 +51,10 @@ MILLIVOLTS_V = 1500.0
 MILLISECONDS_C_RATE, MILLISECONDS_PERIOD_S = 0.01, 10.0
 #: the fitted ambient temperature is used when its uncertainty is below this, K (else the logged median)
 AMBIENT_SIGMA_K = 5.0
+#: a stretched SOC scale of the preset's OCV (its slope within these bounds) is fitted on the first
+#: REMAP_TRAIN of each fitted part and taken where it fits the fitted part REMAP_GAIN better and predicts the
+#: rest of the fitted part better than the preset's own scale
+REMAP_GAIN, REMAP_SLOPE, REMAP_TRAIN = 0.85, (0.3, 3.0), 0.7
 #: the datasheet currents are raised to this many times the fitted part's largest
 LIMIT_MARGIN = 2.0
 #: how far a known capacity (log) or starting SOC may move in the fit
@@ -120,6 +124,12 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest,
                                  electrical, known=known)
     check_capacity(logs, masks, electrical.capacity_ah)
+    if known.soc0 is not None:   # the logged percentage fixes the SOC: the preset's shape may sit on it stretched
+        remapped = _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted)
+        if remapped is not None:
+            chemistry = remapped
+            electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures,
+                                         has_rest, electrical, known=known)
     progress(0.75, 'OCV curve')
     curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known)
     plain = (electrical, heat_params)
@@ -181,6 +191,64 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
         chosen = built[0][2]
     progress(1.0, 'done')
     return chosen
+
+
+def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
+    """The chemistry with its OCV tables read at SOC a + b x instead of x (a BMS's percentage spans a window of
+    the cells' charge, and cells of one chemistry differ in slope), where that fits the fitted part at least
+    REMAP_GAIN better; else None."""
+    from scipy.optimize import least_squares
+    names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
+
+    def system(z, part):
+        rows, targets = [], []
+        for (a, soc, _, x0, x1, xf), mask in zip(electrical.pieces, masks):
+            index = np.flatnonzero(mask)
+            cut = int(len(index) * REMAP_TRAIN)
+            mask = np.zeros(len(soc), dtype=bool)
+            mask[index[:cut] if part == 'train' else index[cut:] if part == 'test' else index] = True
+            where = np.clip(z[0] + z[1] * soc[mask], 0.0, 1.0)
+            ocv = np.interp(where, chemistry.soc_points, chemistry.ocv) + a.weight[mask] * np.interp(
+                where, chemistry.soc_points, chemistry.gap)
+            columns = [x0[mask], x1[mask], xf[mask]]
+            if has_rest:
+                columns.insert(0, np.ones(mask.sum()))
+            rows.append(np.column_stack(columns))
+            targets.append(a.cell_voltage[mask] - ocv)
+        return np.vstack(rows), np.concatenate(targets)
+
+    def residual(z, part='all'):
+        return _non_negative_lstsq(*system(z, part), names)[2]
+
+    def predicted(z):
+        """RMSE of the last part of each fitted part, predicted from the first (the direction a log goes on)."""
+        values = _non_negative_lstsq(*system(z, 'train'), names)[0]
+        design, target = system(z, 'test')
+        return float(np.sqrt(np.mean((target - design @ np.array([values[n] for n in names])) ** 2)))
+    before = float(np.sqrt(np.mean(residual([0.0, 1.0]) ** 2)))
+    solution = least_squares(lambda z: residual(z, 'train'), [0.0, 1.0],
+                             bounds=([-0.5, REMAP_SLOPE[0]], [0.5, REMAP_SLOPE[1]]), x_scale='jac', diff_step=1e-3,
+                             max_nfev=60)
+    after = float(np.sqrt(np.mean(residual(solution.x) ** 2)))
+    if not (after < REMAP_GAIN * before and predicted(solution.x) < predicted([0.0, 1.0])):
+        return None
+    start, slope = (float(v) for v in solution.x)
+    p = chemistry.params
+    where = np.clip(start + slope * chemistry.soc_points, 0.0, 1.0)
+    volts = _increasing(np.interp(where, chemistry.soc_points, chemistry.ocv))
+    changes = {'ocv_voltage_v': tuple(float('%.5f' % v) for v in volts)}
+    if p.ocv_charge_voltage_v:
+        gap = np.interp(where, chemistry.soc_points, chemistry.gap)
+        changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in _increasing(volts + gap))
+    changes['cell_charge_voltage_v'] = min(p.cell_charge_voltage_v, changes['ocv_voltage_v'][-1])
+    changes['cell_cutoff_voltage_v'] = max(p.cell_cutoff_voltage_v, changes['ocv_voltage_v'][0])
+    fitted['ocv_soc_scale'] = Fitted('%.4f + %.4f x' % (start, slope),
+                                     'the preset\'s OCV read at this SOC: the fitted part %.1f mV per cell against '
+                                     '%.1f mV on the preset\'s own SOC scale' % (1000 * after, 1000 * before))
+    try:
+        return Chemistry(replace(p, **changes))
+    except ParameterError:
+        return None
 
 
 def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, chemistry_name, cells_series,
