@@ -55,6 +55,9 @@ AMBIENT_SIGMA_K = 5.0
 #: REMAP_TRAIN of each fitted part and taken where it fits the fitted part REMAP_GAIN better and predicts the
 #: rest of the fitted part better than the preset's own scale
 REMAP_GAIN, REMAP_SLOPE, REMAP_TRAIN = 0.85, (0.3, 3.0), 0.7
+#: the config without hysteresis is taken where its replay of the fitted part is below this many times the
+#: config's with the preset's hysteresis
+VARIANT_GAIN = 0.8
 #: the datasheet currents are raised to this many times the fitted part's largest
 LIMIT_MARGIN = 2.0
 #: how far a known capacity (log) or starting SOC may move in the fit
@@ -163,12 +166,18 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
                            fit_masks=masks)
         built.append((replayed_fit_rmse(result), index, result))
         progress(0.9 + 0.03 * index, 'the OCV curve checked by replay')
-        if params.ocv_charge_voltage_v:   # the same without hysteresis: a sensor's noise at rest moves it
-            single = replace(result, params=replace(params, ocv_charge_voltage_v=()), fitted=dict(these_fitted),
-                             warnings=list(these_warnings))
-            single.fitted['ocv_charge_voltage_v'] = Fitted((), 'no hysteresis: the replay of the fitted part is '
-                                                           'closer without the preset\'s charge branch')
-            built.append((replayed_fit_rmse(single), index, single))
+        if params.ocv_charge_voltage_v:
+            # a sensor's noise at rest, replayed, walks the hysteresis state: none, taken only where the replay
+            # of the fitted part is clearly closer (a tie says nothing of what the charge branch is worth)
+            base = built[-1][0]
+            for name, value, why in (('ocv_charge_voltage_v', (), 'no hysteresis: the replay of the fitted part '
+                                      'is closer without the preset\'s charge branch'),):
+                other = replace(result, params=replace(params, **{name: value}), fitted=dict(these_fitted),
+                                warnings=list(these_warnings))
+                other.fitted[name] = Fitted(value, why)
+                score = replayed_fit_rmse(other)
+                if score < VARIANT_GAIN * base:
+                    built.append((score, index, other))
     best_of = {}
     for item in built:   # per OCV kind, with or without hysteresis, the one the replay prefers
         if item[1] not in best_of or item[0] < best_of[item[1]][0]:
