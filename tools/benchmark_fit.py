@@ -32,9 +32,10 @@ import fit_logs  # noqa: E402
 RUNS = {'1h': (1.0, None), '24h': (24.0, None), '24h10hz': (24.0, 864000), '10M': (24.0, 10000000)}
 LIMIT_S, LIMIT_MB, LIMIT_HELD_MV, LIMIT_INTERRUPT_S = 300.0, 2048.0, 15.0, 2.0
 LIMITS_S = {'1h': 30.0}
-#: the reference run (CPU s, MB, held-out mV/cell): Debian 12, 2 shared cores, one used (2026-11-27, branch fit)
-REFERENCE = {'1h': (3.0, 150, 4.0), '24h': (20.0, 250, 4.0), '24h10hz': (40.0, 500, 4.0),
-             '10M': (200.0, 1500, 4.0)}
+#: the reference run (CPU s, peak MB, held-out mV/cell): Debian 12, 2 cores shared by 7 sessions (2026-11-27, branch
+#: fit; wall times were 2-12 times the CPU's). The 10M log's '%.2f' stamps repeat: 8.64 million distinct
+REFERENCE = {'1h': (0.8, 65, 2.9), '24h': (18.7, 161, 7.1), '24h10hz': (57.3, 315, 3.1),
+             '10M': (37.4, 1160, 4.2)}
 
 
 def make_log(name, directory):
@@ -98,11 +99,28 @@ def interrupt(path, directory, after_s):
     return time.monotonic() - sent, os.path.exists(output)
 
 
+def measured_row(path, cells, parallel):
+    with tempfile.TemporaryDirectory() as directory:
+        figures = fit_logs.fit_and_score(path, directory, cells)
+    found = figures['report'].split('over the ')[1].split(' preset')[0]
+    print('| log | found | capacity | model temperature off by | held out, mV per cell | unfitted HG2 preset |')
+    print('| %s | %d cells, %s | %.4g Ah | %s | %.1f | %.1f |' % (
+        os.path.basename(path), figures['cells_series'], found, figures['capacity_ah'],
+        '-' if figures['temperature_k'] is None else '%.1f K' % figures['temperature_k'], figures['held_mv'],
+        fit_logs.preset_rmse(path, 'lg_hg2_cell', cells, parallel)))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--runs', nargs='+', default=list(RUNS), choices=list(RUNS))
     parser.add_argument('--no-interrupt', action='store_true', help='skip the Ctrl-C check')
+    parser.add_argument('--measured', nargs=3, metavar=('LOG', 'CELLS', 'PARALLEL'),
+                        help='instead: fit a measured LOG on its first 60 %% and print its row of docs/fit.md\'s '
+                        'table (CELLS x PARALLEL: the true pack, for the figure per cell and the preset baseline)')
     args = parser.parse_args()
+    if args.measured:
+        measured_row(args.measured[0], int(args.measured[1]), int(args.measured[2]))
+        return
     print('%-8s %9s %8s %8s %8s %8s  %-22s %s' % ('log', 'rows', 'cpu s', 'wall s', 'peak MB', 'held mV',
                                                    'limits (s, MB, mV)', 'reference (s, MB, mV)'))
     failed = []

@@ -149,3 +149,22 @@ def test_the_chemistry_key_selects_the_lfp_tables_and_leaves_li_ion_alone():
 def test_chemistry_option_lfp_is_used_as_given(tmp_path):
     figures = fit_logs.fit_and_score(A123, str(tmp_path), cells=1, extra=['--chemistry', 'lfp'])
     assert 'over the a123_lfp_cell preset' in figures['report'] and 'chemistry   ' not in figures['report']
+
+
+def test_cell_voltage_gives_the_series_count_and_a_per_cell_voltage_is_warned(robot_csv):
+    from battery_simulator.core.fit.conventions import prepare
+    from battery_simulator.core.fit.fitting import fit
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.parameters import preset
+    _, path = robot_csv
+    raw = read_log(path)
+    raw.cell_count, raw.cell_sum_v = 5, list(raw.voltage_v)   # BatteryState.cell_voltage: 5 cells adding up
+    log = prepare(raw)
+    assert log.cell_count == 5
+    result = fit([log], preset('lg_hg2_cell'), 'lg_hg2_cell')
+    assert result.params.cells_series == 5 and 'cell_voltage' in result.fitted['cells_series'].source
+    raw = read_log(path)   # the voltage field holding one cell's voltage, the cells a pack's
+    raw.cell_count, raw.cell_sum_v = 5, [5 * v for v in raw.voltage_v]
+    log = prepare(raw)
+    assert log.cell_count == 0
+    assert any('one cell\'s voltage' in note and 'cell_voltage' in note for note in log.notes), log.notes
