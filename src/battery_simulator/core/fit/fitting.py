@@ -239,7 +239,9 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
                              bounds=([-0.5, REMAP_SLOPE[0]], [0.5, REMAP_SLOPE[1]]), x_scale='jac', diff_step=1e-3,
                              max_nfev=60)
     after = float(np.sqrt(np.mean(residual(solution.x) ** 2)))
-    if not (after < REMAP_GAIN * before and predicted(solution.x) < predicted([0.0, 1.0])):
+    at_bound = any(np.isclose(solution.x, [-0.5, REMAP_SLOPE[0]], atol=1e-3)) or \
+        any(np.isclose(solution.x, [0.5, REMAP_SLOPE[1]], atol=1e-3))   # at a bound: the logs do not place it
+    if at_bound or not (after < REMAP_GAIN * before and predicted(solution.x) < predicted([0.0, 1.0])):
         return None
     start, slope = (float(v) for v in solution.x)
     p = chemistry.params
