@@ -45,8 +45,8 @@ def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
     assert 'chemistry                      lfp' in figures['report'], figures['report']
     assert 'preset: a123_lfp_cell' in open(figures['config']).read()
     assert figures['cells_series'] == 1
-    assert figures['capacity_ah'] == pytest.approx(measured_capacity, rel=0.05), 'capacity %.3f Ah, measured %.3f Ah' % (
-        figures['capacity_ah'], measured_capacity)
+    assert figures['capacity_ah'] == pytest.approx(measured_capacity, rel=0.05), \
+        'capacity %.3f Ah, measured %.3f Ah' % (figures['capacity_ah'], measured_capacity)
     assert figures['held_mv'] <= LFP_HELD_MV, 'held out %.1f mV per cell' % figures['held_mv']
 
 

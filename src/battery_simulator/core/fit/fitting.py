@@ -112,8 +112,10 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
         logs, masks, candidates, known, cells_series, why, progress, warnings)
     fitted['cells_series'] = Fitted(cells_series, why)
     if len(candidates) > 1:
-        fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape fits the logs best of %s'
-                                     % (chemistry_name, ', '.join(name for name, _ in candidates)))
+        fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape fits the fitted part best '
+                                     'of %s (another than the first only where %.3g times better)'
+                                     % (chemistry_name, ', '.join(name for name, _ in candidates),
+                                        1.0 / CHEMISTRY_CLEAR))
     chemistry = Chemistry(chemistry_params)
     # -- the electrical fit, with the model's temperature
     progress(0.25, 'capacity and resistances')
