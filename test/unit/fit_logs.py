@@ -294,3 +294,99 @@ def foreign_robot_logs(directory, params=None, spans=((0.95, 0.55, 31), (0.75, 0
         write_csv(path, samples, commands)
         out.append((path, numpy.asarray([s.percentage for s in samples])))
     return out
+
+
+# -- measured logs: fit the first part, score the rest through battery_replay ------------------------------
+
+def replayed_voltage(config_path, log_csv, soc):
+    """(time, logged voltage, replayed voltage, replayed temperature, logged temperature or None) of a CSV log
+    replayed with ``config_path`` from ``soc`` through battery_replay's function (the log's own current)."""
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.parameters import load_yaml
+    from battery_simulator.core.replay import replay
+    raw = read_log(log_csv)
+    t = numpy.asarray(raw.time_s, dtype=float)
+    keep = numpy.isfinite(t) & numpy.isfinite(raw.voltage_v) & numpy.isfinite(raw.current_a)
+    t = t[keep] - t[keep][0]
+    v = numpy.asarray(raw.voltage_v)[keep]
+    i = numpy.asarray(raw.current_a)[keep]
+    temp = numpy.asarray(raw.temperature_c, dtype=float)[keep]
+    rows = list(replay(load_yaml(config_path), [(float(a), 'current', float(b)) for a, b in zip(t, i)],
+                       state_of_charge=soc))
+    return (t, v, numpy.array([float(r[1]) for r in rows]), numpy.array([float(r[4]) for r in rows]),
+            temp if numpy.isfinite(temp).all() else None)
+
+
+def fit_and_score(log_csv, directory, cells, holdout=0.4, extra=(), predict=()):
+    """Fit ``log_csv`` with battery_fit holding out its last ``holdout``; replay it (and each of ``predict``,
+    from the SOC its own first voltage gives) with the config; the figures in mV per true series cell."""
+    import io
+    import re
+    from battery_simulator.cli import fit as fit_cli
+    from battery_simulator.core.parameters import load_yaml
+    output = os.path.join(directory, os.path.basename(str(log_csv)) + '.yaml')
+    if os.path.exists(output):
+        os.remove(output)
+    args = fit_cli.parse_arguments([str(log_csv), '-o', output, '--holdout', str(holdout)] + list(extra))
+    report = io.StringIO()
+    fit_cli.run(args, stdout=report)
+    text = report.getvalue()
+    soc = float(re.findall(r'--soc ([0-9.]+)', text)[0])
+    params = load_yaml(output)
+    t, v, model, model_t, logged_t = replayed_voltage(output, log_csv, soc)
+    held = t > t[-1] * (1.0 - holdout)
+    out = {'report': text, 'config': output, 'cells_series': params.cells_series,
+           'capacity_ah': params.design_capacity_ah,
+           'fitted_mv': 1000.0 * float(numpy.sqrt(numpy.mean((model - v)[~held] ** 2))) / cells,
+           'held_mv': 1000.0 * float(numpy.sqrt(numpy.mean((model - v)[held] ** 2))) / cells,
+           'temperature_k': float(numpy.max(numpy.abs(model_t - logged_t))) if logged_t is not None else None,
+           'predicted_mv': []}
+    for other in predict:
+        out['predicted_mv'].append(1000.0 * predicted_rmse(output, other) / cells)
+    return out
+
+
+def predicted_rmse(config_path, log_csv):
+    """RMSE (pack V) of ``log_csv`` replayed whole with the config, from the SOC the logged percentage or
+    (without one) the first voltage's OCV gives."""
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.parameters import load_yaml
+    params = load_yaml(config_path)
+    raw = read_log(log_csv)
+    pct = numpy.asarray(raw.percentage, dtype=float)
+    if numpy.isfinite(pct[:1]).all():
+        soc = float(pct[0]) / (100.0 if numpy.nanmax(pct) > 1.5 else 1.0)
+    else:
+        cell = float(raw.voltage_v[0]) / params.cells_series
+        soc = float(numpy.interp(cell, params.ocv_voltage_v, params.ocv_soc))
+    t, v, model, _, _ = replayed_voltage(config_path, log_csv, soc)
+    return float(numpy.sqrt(numpy.mean((model - v) ** 2)))
+
+
+def preset_rmse(log_csv, preset_name, cells_series, cells_parallel, holdout=0.4):
+    """mV per cell of the held-out part of ``log_csv`` replayed with the unfitted preset (as a pack of
+    ``cells_series`` x ``cells_parallel``), from the SOC the logged percentage or the first voltage gives."""
+    import tempfile
+    import yaml
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.parameters import preset
+    params = preset(preset_name)
+    raw = read_log(log_csv)
+    pct = numpy.asarray(raw.percentage, dtype=float)
+    if numpy.isfinite(pct[:1]).all():
+        soc = float(pct[0]) / (100.0 if numpy.nanmax(pct) > 1.5 else 1.0)
+    else:
+        soc = float(numpy.interp(float(raw.voltage_v[0]) / cells_series, params.ocv_voltage_v, params.ocv_soc))
+    limit = max(abs(float(numpy.nanmin(raw.current_a))), abs(float(numpy.nanmax(raw.current_a)))) / cells_parallel
+    with tempfile.NamedTemporaryFile('w', suffix='.yaml', delete=False) as stream:
+        yaml.safe_dump({'preset': preset_name, 'cells_series': cells_series, 'cells_parallel': cells_parallel,
+                        'charge_current_a': params.charge_current_a * cells_parallel,
+                        'load_current_a': params.load_current_a * cells_parallel,
+                        'cell_max_discharge_current_a': max(params.cell_max_discharge_current_a, 2 * limit),
+                        'cell_max_charge_current_a': max(params.cell_max_charge_current_a, 2 * limit)}, stream)
+    try:
+        t, v, model, _, _ = replayed_voltage(stream.name, log_csv, soc)
+    finally:
+        os.remove(stream.name)
+    held = t >= t[-1] * (1.0 - holdout)
+    return 1000.0 * float(numpy.sqrt(numpy.mean((model - v)[held] ** 2))) / cells_series

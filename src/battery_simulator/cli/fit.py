@@ -28,8 +28,9 @@ except KeyboardInterrupt:
 
 PROG = 'battery_fit'
 DEFAULT_CHEMISTRY = 'lg_hg2_cell'
-#: --chemistry's short names
-CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell'}
+#: --chemistry's short names; without --chemistry these are tried and the logs decide
+CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell', 'li-ion': 'lg_hg2_cell', 'nmc': 'lg_hg2_cell', 'lfp': 'a123_lfp_cell'}
+DETECTED = ('lg_hg2_cell', 'a123_lfp_cell')
 BAR_WIDTH = 30
 #: a fit worse than this (per cell, on the fitted part) is refused: the logs are not what the model is
 MAX_RMSE_PER_CELL_V = 0.2
@@ -60,8 +61,8 @@ def parse_arguments(argv):
     parser.add_argument('logs', nargs='+', metavar='LOG', help='ROS 1 bag, ROS 2 bag (MCAP / sqlite3) or CSV')
     parser.add_argument('-o', '--output', required=True, metavar='CONFIG.yaml', help='the config to write')
     parser.add_argument('--cells-series', type=_cells, help='cells in series (default: from the voltage range)')
-    parser.add_argument('--chemistry', default=DEFAULT_CHEMISTRY,
-                        help='the preset whose cell shape is fitted (default %s)' % DEFAULT_CHEMISTRY)
+    parser.add_argument('--chemistry', help='li-ion, lfp or a preset whose cell shape is fitted (default: found '
+                        'from the logs among %s)' % ', '.join(DETECTED))
     parser.add_argument('--battery-topic', help='the sensor_msgs/BatteryState topic (default: found by type)')
     parser.add_argument('--motion-topic', help='the cmd_vel (Twist, TwistStamped) or Odometry topic')
     parser.add_argument('--holdout', type=_holdout, default=DEFAULT_HOLDOUT,
@@ -70,18 +71,50 @@ def parse_arguments(argv):
     parser.add_argument('--profiles', metavar='DIR', help='write each log\'s current as a battery_replay profile')
     args = parser.parse_args(argv)
     args.chemistry = CHEMISTRIES.get(args.chemistry, args.chemistry)
-    if args.chemistry not in preset_names():
+    if args.chemistry is not None and args.chemistry not in preset_names():
         parser.error('argument --chemistry: %r is not a preset (one of %s)' % (args.chemistry, ', '.join(preset_names())))
     if os.path.isdir(args.output):
         parser.error('argument -o: %s is a directory (give a file name for the config)' % args.output)
     problem = output_problem(args.output, args.logs) or _directory_problem(args.output)
     if problem:
         parser.error('argument -o: %s' % problem)
+    problem = _writable_problem(os.path.dirname(os.path.abspath(args.output)))
+    if problem:
+        parser.error('argument -o: %s' % problem)
+    if args.profiles is not None:
+        problem = profiles_problem(args.profiles, args.output, args.logs)
+        if problem:
+            parser.error('argument --profiles: %s' % problem)
     if args.plot is not None:
         problem = plot_problem(args.plot, args.output, args.logs)
         if problem:
             parser.error('argument --plot: %s' % problem)
     return args
+
+
+def _writable_problem(directory):
+    """Why no file can be made in ``directory`` (tried with a file of its own name, removed again), or None."""
+    import tempfile
+    try:
+        handle, probe = tempfile.mkstemp(prefix='.battery_fit_probe_', dir=directory)
+    except OSError as error:
+        return 'cannot write into %s: %s' % (directory, error.strerror)
+    os.close(handle)
+    os.remove(probe)
+    return None
+
+
+def profiles_problem(directory, output, logs):
+    """Why --profiles DIR cannot be used (checked before the fit), or None: a file, or a directory that cannot be
+    made or written into."""
+    if os.path.exists(directory) and not os.path.isdir(directory):
+        return '%s exists and is not a directory' % directory
+    parent = os.path.dirname(os.path.abspath(directory))
+    if not os.path.isdir(directory):
+        if not os.path.isdir(parent):
+            return 'no such directory %s' % parent
+        return _writable_problem(parent)
+    return _writable_problem(directory)
 
 
 def _directory_problem(path):
@@ -160,17 +193,20 @@ def run(args, stdout=None, stderr=None):
     """Fit, write the config (and plot, profiles), print the report; FitError for a log that cannot be fitted."""
     stdout = stdout or sys.stdout
     bar = ProgressBar(stderr or sys.stderr)
+    names = [args.chemistry] if args.chemistry else list(DETECTED)
     try:
-        chemistry = preset(args.chemistry)
+        chemistries = [(name, preset(name)) for name in names]
     except ParameterError as error:
         raise FitError(str(error)) from None
+    chemistry = chemistries[0][1]
     logs = []
     for index, path in enumerate(args.logs):
         bar(0.0, 'reading %s' % os.path.basename(path))
         logs.extend(split_at_gaps(prepare(read_log(path, args.battery_topic, args.motion_topic),
                                           chemistry.cmd_vel_timeout_s)))
-    result = fit(logs, chemistry, args.chemistry, cells_series=args.cells_series, holdout=args.holdout,
-                 progress=lambda fraction, text: bar(0.05 + 0.85 * fraction, text))
+    profile_paths = _profile_paths(args.profiles, logs) if args.profiles else None
+    result = fit(logs, chemistry, names[0], cells_series=args.cells_series, holdout=args.holdout,
+                 progress=lambda fraction, text: bar(0.05 + 0.85 * fraction, text), alternatives=chemistries[1:])
     bar(0.92, 'replaying the logs through the model')
     numbers = figures(result)
     per_cell_v = numbers.fit_rmse_v / result.params.cells_series
@@ -181,7 +217,7 @@ def run(args, stdout=None, stderr=None):
     text = config_text(result, command)
     profiles = None
     if args.profiles:
-        profiles = _write_profiles(args.profiles, logs)
+        profiles = _write_profiles(profile_paths, logs)
     if args.plot:
         bar(0.97, 'plotting')
         plot(args.plot, result, numbers)
@@ -191,18 +227,25 @@ def run(args, stdout=None, stderr=None):
     stdout.write(report_text(result, numbers, args.output, args.holdout, profiles))
 
 
-def _write_profiles(directory, logs):
+def _profile_paths(directory, logs):
+    """The profile files of ``logs`` in ``directory``; FitError (before the fit) when one exists already: a
+    user's file is never written over."""
+    paths = [os.path.join(directory, 'profile_%d_%s.csv' % (index + 1, os.path.basename(log.name.rstrip('/'))
+                                                            .replace('.', '_'))) for index, log in enumerate(logs)]
+    existing = [path for path in paths if os.path.exists(path)]
+    if existing:
+        raise FitError('--profiles: %s exists already (it is left alone: give another directory)' % existing[0])
+    return paths
+
+
+def _write_profiles(paths, logs):
     try:
-        os.makedirs(directory, exist_ok=True)
-        paths = []
-        for index, log in enumerate(logs):
-            path = os.path.join(directory, 'profile_%d_%s.csv' % (index + 1, os.path.basename(log.name.rstrip('/'))
-                                                                  .replace('.', '_')))
+        os.makedirs(os.path.dirname(paths[0]) or '.', exist_ok=True)
+        for path, log in zip(paths, logs):
             write_profile(path, log)
-            paths.append(path)
         return paths
     except OSError as error:
-        raise FitError('cannot write the profiles into %s: %s' % (directory, error.strerror)) from None
+        raise FitError('cannot write the profile %s: %s' % (path, error.strerror)) from None
 
 
 def plot(path, result, numbers):

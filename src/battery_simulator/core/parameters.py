@@ -9,6 +9,8 @@ from pathlib import Path
 
 import yaml
 
+from battery_simulator.core.lfp_tables import CHEMISTRIES, LIMITS, chemistry_tables
+
 
 class ParameterError(ValueError):
     """A parameter value is out of its allowed range; the message names both."""
@@ -146,6 +148,9 @@ class BatteryParameters:
     serial_number: str = ''
     #: where the numbers come from
     source: str = ''
+    #: the cells' chemistry: 'li-ion' (NMC / NCA) or 'lfp'; a config naming 'lfp' without an OCV table of
+    #: its own gets LFP's (core/lfp_tables.py)
+    chemistry: str = 'li-ion'
     #: a pack of differing cells (Part 5): relative standard deviation of the series groups' capacity and
     #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model); below MAX_SPREAD
     capacity_spread: float = 0.0
@@ -268,6 +273,7 @@ _RULES = (
     ('location', lambda v: isinstance(v, str), 'a string'),
     ('serial_number', lambda v: isinstance(v, str), 'a string'),
     ('source', lambda v: isinstance(v, str), 'a string'),
+    ('chemistry', lambda v: v in CHEMISTRIES, 'one of %s' % ', '.join(CHEMISTRIES)),
 )
 
 
@@ -552,6 +558,10 @@ def from_mapping(values, base=None, origin='parameters'):
         except ParameterError as error:
             raise ParameterError('%s: %s' % (origin, error)) from None
     changes = {}
+    tables = chemistry_tables(values.get('chemistry'))
+    if tables and values.get('chemistry') != base.chemistry and not set(tables) & set(values):
+        changes.update(tables)   # the chemistry's OCV and voltage limits, unless the config gives its own
+        changes.update((key, value) for key, value in LIMITS[values['chemistry']].items() if key not in values)
     if ('ocv_soc' in values or 'ocv_voltage_v' in values) and 'ocv_charge_voltage_v' not in values:
         changes['ocv_charge_voltage_v'] = ()   # a new OCV table without a charge branch: one curve, as before
     for key, value in values.items():

@@ -4,8 +4,9 @@ For given capacity, starting SOC and time constants the cell voltage is linear i
 or its values at knots), R0, R1 and R_fast: V = OCV(soc) + R0 f0 S i + R1 x1 + R_fast x_fast, where
 x1 and x_fast are the current through each RC pair's memory, f the SOC factor tables and charge factors
 and S the Arrhenius scale at the model's temperature. So the fit searches a handful of numbers and
-solves the rest by least squares. A sample's current is taken as what flowed over the interval before
-it (a BatteryState reports the present current).
+solves the rest by least squares. A sample's current is what flowed over the interval after it, as
+battery_replay holds each row's current until the next row: the voltage at a sample answers the
+previous sample's current (one convention, the replay's, for the fit, the heat and the counted charge).
 """
 from dataclasses import dataclass
 
@@ -84,9 +85,20 @@ class LogArrays:
     cell_voltage: np.ndarray
 
 
+def flowing_current(current_a):
+    """The current over the interval before each sample: the previous sample's (battery_replay holds a
+    row's current until the next row; none before the first)."""
+    return np.concatenate([[0.0], np.asarray(current_a, dtype=float)[:-1]])
+
+
+def counted_charge_ah(log):
+    """The charge counted to each sample, Ah (the replay's convention), from 0 at the first."""
+    return np.concatenate([[0.0], np.cumsum(log.current_a[:-1] * np.diff(log.time_s))]) / 3600.0
+
+
 def log_arrays(log, chemistry, cells_series, cells_parallel):
     dt = np.concatenate([[0.0], np.diff(log.time_s)])
-    cell_current = log.current_a / cells_parallel
+    cell_current = flowing_current(log.current_a) / cells_parallel
     charging = cell_current > 0.0
     target = np.where(cell_current > 0, 1.0, np.where(cell_current < 0, -1.0, 0.0))
     rate = np.abs(cell_current) * dt / (3600.0 * chemistry.params.hysteresis_ah)

@@ -65,14 +65,21 @@ def _comment(result, name):
 
 
 def write_config(path, text):
-    """All or nothing: written beside ``path`` and renamed, so a failure leaves an older file as it was."""
-    partial = '%s.part' % path
+    """All or nothing: written to a new file of its own beside ``path`` (never a user's OUT.yaml.part) and
+    renamed, so a failure leaves an older file as it was."""
+    import tempfile
+    partial = None
     try:
-        with open(partial, 'w', encoding='utf-8') as stream:
+        handle, partial = tempfile.mkstemp(prefix='.%s.' % os.path.basename(path), suffix='.part',
+                                           dir=os.path.dirname(os.path.abspath(path)))
+        with os.fdopen(handle, 'w', encoding='utf-8') as stream:
             stream.write(text)
+        os.chmod(partial, 0o644)
         os.replace(partial, path)
+        partial = None
     except OSError as error:
         raise FitError('cannot write %s: %s' % (path, error.strerror)) from None
     finally:
-        with contextlib.suppress(OSError):
-            os.remove(partial)
+        if partial is not None:
+            with contextlib.suppress(OSError):
+                os.remove(partial)

@@ -15,6 +15,8 @@ MIN_SAMPLES = 20
 MIN_SPAN_S = 60.0
 #: a pause in the samples longer than this (and than GAP_FACTOR sampling periods) splits a log in two
 GAP_S, GAP_FACTOR = 600.0, 20.0
+#: a log of more samples than this is thinned to about this many (the charge kept): any log within minutes
+MAX_SAMPLES = 150000
 #: a current whose standard deviation is below this (after the sensor's noise) has no steps, A
 MIN_CURRENT_SPREAD_A = 0.02
 
@@ -37,6 +39,8 @@ class FitLog:
     turn_now: np.ndarray = None
     source: str = ''
     current_inverted: bool = False
+    #: the series count BatteryState.cell_voltage shows (0: none)
+    cell_count: int = 0
     notes: list = field(default_factory=list)
 
 
@@ -71,14 +75,19 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_SPAN_S:
         raise FitError('%s: too short to fit: %d usable samples over %.0f s (at least %d samples over %.0f s)'
                        % (name, len(t), t[-1] - t[0] if len(t) else 0.0, MIN_SAMPLES, MIN_SPAN_S))
+    if len(t) > MAX_SAMPLES:
+        t, v, i, temp, pct = _decimated(t, v, i, temp, pct, notes)
     period = float(np.median(np.diff(t)))
     if period > GAP_S:   # every sample a pause: stamps in ns or ms (ROS stamps as integers), not a battery log
-        raise FitError('%s: the samples are %.3g s apart (median): the time column must be in seconds '
-                       '(a stamp in nanoseconds is 1e9 times too large)' % (name, period))
+        unit = next((unit for unit, factor in (('milliseconds', 1e3), ('microseconds', 1e6), ('nanoseconds', 1e9))
+                     if period / factor <= GAP_S), 'nanoseconds')
+        raise FitError('%s: the samples are %.3g s apart (median): the time looks like %s; the time column must be '
+                       'in seconds' % (name, period, unit))
     if np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A:
         raise FitError('%s: the current is constant (%.3f A, spread %.3f A): nothing to identify the resistance '
                        'from; record a log with current steps (drive, stop, charge)' % (name, np.mean(i), np.std(i)))
-    log = FitLog(name=name, time_s=t - t[0], voltage_v=v, current_a=i, source=raw.source, notes=notes)
+    log = FitLog(name=name, time_s=t - t[0], voltage_v=v, current_a=i, source=raw.source, notes=notes,
+                 cell_count=_cell_count(raw, v, notes))
     log.current_inverted = current_is_inverted(t, v, i)
     if log.current_inverted:
         log.current_a = -i
@@ -97,6 +106,36 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if raw.motion_time_s is not None and len(raw.motion_time_s) > 0:
         _motion_at_samples(log, raw, t, cmd_vel_timeout_s)
     return log
+
+
+def _cell_count(raw, voltage, notes):
+    """The series count BatteryState.cell_voltage shows (0: none or not usable); a voltage field that is one
+    cell's while the cells add up to a pack's is said, and the count is not used then."""
+    if not raw.cell_count:
+        return 0
+    sums = np.asarray(raw.cell_sum_v, dtype=float)
+    sums = sums[np.isfinite(sums)]
+    if raw.cell_count > 1 and len(sums):
+        ratio = float(np.median(sums)) / float(np.median(voltage))
+        if ratio > 1.5:
+            notes.append('WARNING: the voltage is %.3g times below the sum of BatteryState.cell_voltage (%d cells): '
+                         'it looks like one cell\'s voltage given as the pack\'s; the series count is fitted from '
+                         'the voltage as logged' % (ratio, raw.cell_count))
+            return 0
+    return raw.cell_count
+
+
+def _decimated(t, v, i, temp, pct, notes):
+    """Every step-th sample, the current the mean over each new interval after it (the charge counted as the
+    replay counts it is kept), the rest as sampled; said in ``notes``."""
+    step = int(np.ceil(len(t) / MAX_SAMPLES))
+    charge = np.concatenate([[0.0], np.cumsum(i[:-1] * np.diff(t))])
+    picked = np.arange(0, len(t), step)
+    span = np.diff(t[picked])
+    current = np.concatenate([np.diff(charge[picked]) / np.where(span > 0, span, 1.0), [i[picked[-1]]]])
+    notes.append('NOTE: decimated: %d samples thinned to every %dth (%d), the current averaged over each new '
+                 'interval (the charge kept): every figure is the thinned log\'s' % (len(t), step, len(picked)))
+    return t[picked], v[picked], current, temp[picked], pct[picked]
 
 
 def split_at_gaps(log):
@@ -158,8 +197,8 @@ def _motion_at_samples(log, raw, t_abs, timeout_s):
     mt = np.asarray(raw.motion_time_s, dtype=float)
     order = np.argsort(mt, kind='stable')
     mt = mt[order]
-    speed = np.asarray(raw.linear_mps, dtype=float)[order]
-    turn = np.asarray(raw.angular_radps, dtype=float)[order]
+    speed = np.abs(np.asarray(raw.linear_mps, dtype=float))[order]
+    turn = np.abs(np.asarray(raw.angular_radps, dtype=float))[order]
     good = np.isfinite(mt) & np.isfinite(speed) & np.isfinite(turn)
     mt, speed, turn = mt[good], speed[good], turn[good]
     if len(mt) == 0:

@@ -16,8 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from battery_simulator.core.fit import FitError
-from battery_simulator.core.fit.circuit import (Chemistry, hat_basis, log_arrays, regressors, state_of_charge,
-                                                 thermal)
+from battery_simulator.core.fit.circuit import (Chemistry, counted_charge_ah, flowing_current, hat_basis,
+                                                 log_arrays, regressors, state_of_charge, thermal)
 from battery_simulator.core.parameters import MAX_CELLS, ParameterError
 
 #: the held-out part of each log (its last fraction), by default
@@ -36,11 +36,32 @@ LEARN_KNOT_SOC, LEARN_MIN_KNOTS, LEARN_MAX_KNOTS = 0.02, 4, 40
 #: a charge: charging current for at least this long, s
 CHARGE_MIN_S = 120.0
 #: the logged percentage gives the capacity beside a learned OCV curve when it moves by this much
-PERCENTAGE_SPAN = 0.1
+PERCENTAGE_SPAN = 0.005
 #: the series count is clear when the runner-up's fit is this many times worse than the best's
 SERIES_CLEAR = 1.5
 #: samples per log the series-count search looks at
 SEARCH_SAMPLES = 2500
+#: the fitted part replayed to check a learned OCV curve: at most this many samples (a longer log thinned)
+REPLAY_CHECK_SAMPLES = 20000
+#: a current this many amperes per volt of the battery (99th percentile) is no battery's: milliamperes
+MILLIAMPERES_PER_VOLT = 60.0
+#: a battery voltage above this is millivolts
+MILLIVOLTS_V = 1500.0
+#: a log whose largest current is below this C-rate while sampled this far apart has stamps in ms
+MILLISECONDS_C_RATE, MILLISECONDS_PERIOD_S = 0.01, 10.0
+#: the fitted ambient temperature is used when its uncertainty is below this, K (else the logged median)
+AMBIENT_SIGMA_K = 5.0
+#: a stretched SOC scale of the preset's OCV (its slope within these bounds) is fitted on the first
+#: REMAP_TRAIN of each fitted part and taken where it fits the fitted part REMAP_GAIN better and predicts the
+#: rest of the fitted part better than the preset's own scale
+REMAP_GAIN, REMAP_SLOPE, REMAP_TRAIN = 0.85, (0.3, 3.0), 0.7
+#: the config without hysteresis is taken where its replay of the fitted part is below this many times the
+#: config's with the preset's hysteresis
+VARIANT_GAIN = 0.8
+#: the datasheet currents are raised to this many times the fitted part's largest
+LIMIT_MARGIN = 2.0
+#: how far a known capacity (log) or starting SOC may move in the fit
+KNOWN_SPREAD = 0.01
 #: bounds of the searched time constants, s
 TAU1_BOUNDS, TAU_FAST_BOUNDS = (60.0, 20000.0), (2.0, 200.0)
 
@@ -66,33 +87,57 @@ class FitResult:
     fit_masks: list                # per log: the samples fitted (the rest held out)
 
 
-def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAULT_HOLDOUT, progress=None):
-    """A FitResult for ``logs`` (FitLogs of one robot) over the chemistry preset's parameters."""
+def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAULT_HOLDOUT, progress=None,
+        alternatives=()):
+    """A FitResult for ``logs`` (FitLogs of one robot) over the chemistry preset's parameters; with
+    ``alternatives`` ((name, params) of other chemistry presets) the chemistry is found from the logs too."""
     progress = progress or (lambda fraction, text: None)
-    chemistry = Chemistry(chemistry_params)
     warnings = []
     masks = [_fit_mask(log, holdout) for log in logs]
     fitted, kept = {}, {}
-    # -- series count
+    check_units(logs, masks)
+    known = known_charge(logs, masks)
+    # -- series count and chemistry
     progress(0.02, 'series count')
-    if cells_series is None:
-        cells_series, why = _series_count(logs, masks, chemistry, progress, warnings)
+    candidates = [(chemistry_name, chemistry_params)] + list(alternatives)
+    counts = sorted({log.cell_count for log in logs if log.cell_count})
+    if cells_series is None and counts:
+        cells_series, why = counts[-1], 'the logs\' BatteryState.cell_voltage (%d cells)' % counts[-1]
+        if len(counts) > 1:
+            warnings.append('the logs\' cell_voltage has %s entries: %d taken' % (
+                ' or '.join(str(c) for c in counts), counts[-1]))
     else:
-        why = 'given (--cells-series)'
+        why = 'given (--cells-series)' if cells_series else None
+    cells_series, why, chemistry_name, chemistry_params = _series_count(
+        logs, masks, candidates, known, cells_series, why, progress, warnings)
     fitted['cells_series'] = Fitted(cells_series, why)
+    if len(candidates) > 1:
+        fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape fits the fitted part best '
+                                     'of %s (another than the first only where %.3g times better)'
+                                     % (chemistry_name, ', '.join(name for name, _ in candidates),
+                                        1.0 / CHEMISTRY_CLEAR))
+    chemistry = Chemistry(chemistry_params)
     # -- the electrical fit, with the model's temperature
     progress(0.25, 'capacity and resistances')
     has_rest = any(_has_rest(log, mask) for log, mask in zip(logs, masks))
     temperatures = [_preset_temperature(log, chemistry) for log in logs]
-    electrical = _fit_electrical(logs, masks, chemistry, cells_series, 1, temperatures, has_rest, None)
-    cells_parallel = min(MAX_CELLS, max(1, int(round(electrical.capacity_ah / chemistry_params.cell_capacity_ah))))
-    heat_params = _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept)
+    electrical = _fit_electrical(logs, masks, chemistry, cells_series, 1, temperatures, has_rest, None, known=known)
+    cells_parallel = parallel_count(electrical.capacity_ah, chemistry_params.cell_capacity_ah)
+    heat_params = _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept, warnings)
     temperatures = [_model_temperature(log, chemistry, cells_parallel, electrical, heat_params) for log in logs]
     progress(0.55, 'capacity and resistances (with the heat)')
     electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest,
-                                 electrical)
+                                 electrical, known=known)
+    check_capacity(logs, masks, electrical.capacity_ah)
+    if known.soc0 is not None:   # the logged percentage fixes the SOC: the preset's shape may sit on it stretched
+        remapped = _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted)
+        if remapped is not None:
+            chemistry = remapped
+            electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures,
+                                         has_rest, electrical, known=known)
     progress(0.75, 'OCV curve')
-    curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest)
+    curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known)
+    plain = (electrical, heat_params)
     for rounds in range(2):
         if curve is None:
             break
@@ -101,38 +146,275 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
         coefficients.update((name, (value, curve['sigmas'].get(name))) for name, value in curve['resistances'].items())
         electrical = replace(electrical, tau1_s=curve['tau1_s'], tau_fast_s=curve['tau_fast_s'], soc0=curve['soc0'],
                              coefficients=coefficients, capacity_ah=curve['capacity_ah'])
-        heat_params = _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept)
+        heat_params = _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, {}, {}, [])
         if rounds == 0 and any(log.temperature_c is not None for log in logs):
             temperatures = [_model_temperature(log, chemistry, cells_parallel, electrical, heat_params) for log in logs]
-            curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest) or curve
+            curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known) or curve
         else:
             break
+    progress(0.85, 'loads and charger')
+    loads = _fit_loads(logs, masks, cells_series, chemistry_params, fitted, kept)
+    choices = [(None, plain[0], plain[1])] + ([(curve, electrical, heat_params)] if curve is not None else [])
+    built = []
+    for index, (which, this_electrical, this_heat) in enumerate(choices):
+        these_fitted, these_kept, these_warnings = dict(fitted), dict(kept), list(warnings)
+        if this_heat is not plain[1]:   # the heat of the curve's resistances, said in this result
+            _fit_thermal(logs, masks, chemistry, cells_parallel, this_electrical, these_fitted, these_kept,
+                         these_warnings)
+        params = _assemble(logs, masks, this_electrical, which, this_heat, loads, chemistry, chemistry_name,
+                           cells_series, cells_parallel, has_rest, these_fitted, these_kept, these_warnings)
+        result = FitResult(params=params, chemistry=chemistry_name, fitted=these_fitted, kept=these_kept,
+                           warnings=these_warnings, logs=logs, initial_soc=list(this_electrical.soc0),
+                           fit_masks=masks)
+        built.append((replayed_fit_rmse(result), index, result))
+        progress(0.9 + 0.03 * index, 'the OCV curve checked by replay')
+        if params.ocv_charge_voltage_v:
+            # a sensor's noise at rest, replayed, walks the hysteresis state: none, taken only where the replay
+            # of the fitted part is clearly closer (a tie says nothing of what the charge branch is worth)
+            base = built[-1][0]
+            for name, value, why in (('ocv_charge_voltage_v', (), 'no hysteresis: the replay of the fitted part '
+                                      'is closer without the preset\'s charge branch'),):
+                other = replace(result, params=replace(params, **{name: value}), fitted=dict(these_fitted),
+                                warnings=list(these_warnings))
+                other.fitted[name] = Fitted(value, why)
+                score = replayed_fit_rmse(other)
+                if score < VARIANT_GAIN * base:
+                    built.append((score, index, other))
+    best_of = {}
+    for item in built:   # per OCV kind, with or without hysteresis, the one the replay prefers
+        if item[1] not in best_of or item[0] < best_of[item[1]][0]:
+            best_of[item[1]] = item
+    built = [best_of[index] for index in sorted(best_of)]
+    if len(built) > 1:
+        (plain_rmse, _, plain_result), (curve_rmse, _, curve_result) = built
+        if curve_rmse < plain_rmse:
+            curve_result.fitted['ocv_voltage_v'].source += ('; kept: the replay of the fitted part %.1f mV per '
+                                                            'cell with it, %.1f mV with the preset\'s shape' % (
+                                                                1000 * curve_rmse / cells_series,
+                                                                1000 * plain_rmse / cells_series))
+            chosen = curve_result
+        else:
+            plain_result.warnings.append('a learned OCV curve fitted better but replayed the fitted part worse '
+                                         '(%.1f against %.1f mV per cell): the preset\'s shape kept' % (
+                                             1000 * curve_rmse / cells_series, 1000 * plain_rmse / cells_series))
+            chosen = plain_result
+    else:
+        chosen = built[0][2]
+    progress(1.0, 'done')
+    return chosen
+
+
+def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
+    """The chemistry with its OCV tables read at SOC a + b x instead of x (a BMS's percentage spans a window of
+    the cells' charge, and cells of one chemistry differ in slope), where that fits the fitted part at least
+    REMAP_GAIN better; else None."""
+    from scipy.optimize import least_squares
+    names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
+
+    def system(z, part):
+        rows, targets = [], []
+        for (a, soc, _, x0, x1, xf), mask in zip(electrical.pieces, masks):
+            index = np.flatnonzero(mask)
+            cut = int(len(index) * REMAP_TRAIN)
+            mask = np.zeros(len(soc), dtype=bool)
+            mask[index[:cut] if part == 'train' else index[cut:] if part == 'test' else index] = True
+            where = np.clip(z[0] + z[1] * soc[mask], 0.0, 1.0)
+            ocv = np.interp(where, chemistry.soc_points, chemistry.ocv) + a.weight[mask] * np.interp(
+                where, chemistry.soc_points, chemistry.gap)
+            columns = [x0[mask], x1[mask], xf[mask]]
+            if has_rest:
+                columns.insert(0, np.ones(mask.sum()))
+            rows.append(np.column_stack(columns))
+            targets.append(a.cell_voltage[mask] - ocv)
+        return np.vstack(rows), np.concatenate(targets)
+
+    def residual(z, part='all'):
+        return _non_negative_lstsq(*system(z, part), names)[2]
+
+    def predicted(z):
+        """RMSE of the last part of each fitted part, predicted from the first (the direction a log goes on)."""
+        values = _non_negative_lstsq(*system(z, 'train'), names)[0]
+        design, target = system(z, 'test')
+        return float(np.sqrt(np.mean((target - design @ np.array([values[n] for n in names])) ** 2)))
+    before = float(np.sqrt(np.mean(residual([0.0, 1.0]) ** 2)))
+    solution = least_squares(lambda z: residual(z, 'train'), [0.0, 1.0],
+                             bounds=([-0.5, REMAP_SLOPE[0]], [0.5, REMAP_SLOPE[1]]), x_scale='jac', diff_step=1e-3,
+                             max_nfev=60)
+    after = float(np.sqrt(np.mean(residual(solution.x) ** 2)))
+    at_bound = any(np.isclose(solution.x, [-0.5, REMAP_SLOPE[0]], atol=1e-3)) or \
+        any(np.isclose(solution.x, [0.5, REMAP_SLOPE[1]], atol=1e-3))   # at a bound: the logs do not place it
+    if at_bound or not (after < REMAP_GAIN * before and predicted(solution.x) < predicted([0.0, 1.0])):
+        return None
+    start, slope = (float(v) for v in solution.x)
+    p = chemistry.params
+    where = np.clip(start + slope * chemistry.soc_points, 0.0, 1.0)
+    volts = _increasing(np.interp(where, chemistry.soc_points, chemistry.ocv))
+    changes = {'ocv_voltage_v': tuple(float('%.5f' % v) for v in volts)}
+    if p.ocv_charge_voltage_v:
+        gap = np.interp(where, chemistry.soc_points, chemistry.gap)
+        changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in _increasing(volts + gap))
+    changes['cell_charge_voltage_v'] = min(p.cell_charge_voltage_v, changes['ocv_voltage_v'][-1])
+    changes['cell_cutoff_voltage_v'] = max(p.cell_cutoff_voltage_v, changes['ocv_voltage_v'][0])
+    fitted['ocv_soc_scale'] = Fitted('%.4f + %.4f x' % (start, slope),
+                                     'the preset\'s OCV read at this SOC: the fitted part %.1f mV per cell against '
+                                     '%.1f mV on the preset\'s own SOC scale' % (1000 * after, 1000 * before))
+    try:
+        return Chemistry(replace(p, **changes))
+    except ParameterError:
+        return None
+
+
+def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, chemistry_name, cells_series,
+              cells_parallel, has_rest, fitted, kept, warnings):
+    """The fitted parameters from the parts (FitError when they break the model's rules)."""
+    chemistry_params = chemistry.params
     changes = _electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest,
                                  fitted, kept, warnings)
-    progress(0.9, 'loads and charger')
-    changes.update(_fit_loads(logs, masks, cells_series, chemistry_params, fitted, kept))
+    changes.update(loads)
     changes.update(_fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted, kept))
     changes.update(heat_params['changes'])
-    changes.update(_limits(logs, cells_series, cells_parallel, chemistry_params, changes, fitted))
+    changes.update(_limits(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted))
+    _cutoff_warning(logs, masks, cells_series, changes, warnings)
     changes['cells_series'] = cells_series
     changes['cells_parallel'] = cells_parallel
     changes['name'] = 'fitted'
     changes['source'] = 'battery_fit from %d log%s over the %s preset' % (len(logs), 's' * (len(logs) > 1),
                                                                           chemistry_name)
-    try:
-        params = replace(chemistry_params, **changes)
-    except ParameterError as error:
-        raise FitError('the fitted values break the model\'s rules (%s): the log cannot be fitted with the %s '
-                       'preset; try --chemistry or --cells-series' % (error, chemistry_name)) from None
     for name, value in changes.items():
         if isinstance(value, float) and not math.isfinite(value):
             raise FitError('the fit gave %s = %r: the log cannot be fitted' % (name, value))
-    progress(1.0, 'done')
-    return FitResult(params=params, chemistry=chemistry_name, fitted=fitted, kept=kept, warnings=warnings,
-                     logs=logs, initial_soc=list(electrical.soc0), fit_masks=masks)
+    try:
+        return replace(chemistry_params, **changes)
+    except ParameterError as error:
+        raise FitError('the fitted values break the model\'s rules (%s): the log cannot be fitted with the %s '
+                       'preset; try --chemistry or --cells-series' % (error, chemistry_name)) from None
+
+
+def replayed_fit_rmse(result):
+    """The voltage RMSE (pack V) of the fitted samples as battery_replay computes it (long logs thinned)."""
+    from battery_simulator.core.fit.report import replayed_rmse
+    return replayed_rmse(result, REPLAY_CHECK_SAMPLES)
+
+
+def parallel_count(capacity_ah, cell_capacity_ah):
+    """The parallel count of a pack of ``capacity_ah`` of the preset's cells (at most MAX_CELLS: then the
+    cells are larger)."""
+    return min(MAX_CELLS, max(1, int(round(capacity_ah / cell_capacity_ah))))
 
 
 # -- the parts ------------------------------------------------------------------------------------------
+
+@dataclass
+class Known:
+    """The charge the logs fix without the OCV's shape: the pack capacity and each log's starting SOC from
+    the logged percentage (a BMS's coulomb count), or from a full charge and a cut-off."""
+
+    capacity_ah: float = None      # pack
+    soc0: list = None              # per log, or None
+    full_at: list = None           # per log: the sample where a CC-CV charge ended (SOC 1), or None
+    source: str = ''
+
+    def starts(self, logs):
+        """Each log's starting SOC when the capacity and every start are fixed, else None."""
+        if self.capacity_ah is None:
+            return None
+        if self.soc0 is not None:
+            return self.soc0
+        if self.full_at is None or any(f is None for f in self.full_at):
+            return None
+        return [min(1.0, max(0.0, 1.0 - counted_charge_ah(log)[f] / self.capacity_ah))
+                for log, f in zip(logs, self.full_at)]
+
+    def thinned(self, steps):
+        full_at = None if self.full_at is None else [None if f is None else f // step
+                                                     for f, step in zip(self.full_at, steps)]
+        return replace(self, full_at=full_at)
+
+
+def known_charge(logs, masks):
+    """Known from the fitted part of the logs (all None where they fix nothing)."""
+    gauge = _percentage_capacity(logs, masks)
+    if gauge:
+        return Known(capacity_ah=gauge[0], soc0=gauge[1], source='the logged percentage against the counted charge')
+    full_at = [_full_charge_end(log, mask) for log, mask in zip(logs, masks)]
+    capacity = None
+    for log, mask, full in zip(logs, masks, full_at):
+        empty = _cutoff_end(log, mask)
+        if full is not None and empty is not None:
+            charge = counted_charge_ah(log)
+            capacity = abs(charge[full] - charge[empty])
+            break
+    if capacity is None and all(f is None for f in full_at):
+        return Known()
+    return Known(capacity_ah=capacity, full_at=full_at,
+                 source='a CC-CV charge\'s end (SOC 1)' + (' and a cut-off (SOC 0)' if capacity else ''))
+
+
+def _runs(flags):
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def _full_charge_end(log, mask):
+    """The last sample of the last CC-CV charge in the fitted part that tapered at constant voltage."""
+    i, v, t = log.current_a, log.voltage_v, log.time_s
+    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    found = None
+    for start, stop in _runs(mask & (i > threshold)):
+        if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
+            continue
+        peak, top = float(np.max(i[start:stop])), float(np.max(v[start:stop]))
+        tail = slice(start + (stop - start) * 3 // 4, stop)
+        if i[stop - 1] < 0.3 * peak and np.min(v[tail]) > top * 0.99:
+            found = stop - 1
+    return found
+
+
+def _cutoff_end(log, mask):
+    """The last sample of a lasting discharge in the fitted part that ended at the part's lowest voltage."""
+    i, v, t = log.current_a, log.voltage_v, log.time_s
+    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    lowest = float(np.min(v[mask]))
+    found = None
+    for start, stop in _runs(mask & (i < -threshold)):
+        if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
+            continue
+        if v[stop - 1] <= lowest * 1.01 and np.std(i[start:stop]) < 0.1 * abs(float(np.mean(i[start:stop]))):
+            found = stop - 1
+    return found
+
+
+def check_units(logs, masks):
+    """FitError naming the unit when a log's current looks like mA or its voltage like mV."""
+    for log, mask in zip(logs, masks):
+        volts = float(np.median(log.voltage_v[mask]))
+        if volts > MILLIVOLTS_V:
+            raise FitError('%s: the voltage looks like millivolts (median %.6g): the column must be in volts'
+                           % (log.name, volts))
+        amperes = float(np.percentile(np.abs(log.current_a[mask]), 99))
+        if amperes > MILLIAMPERES_PER_VOLT * volts:
+            raise FitError('%s: the current looks like milliamperes (%.6g at %.4g V; no battery gives %.0f A per '
+                           'volt): the column must be in amperes' % (log.name, amperes, volts, amperes / volts))
+
+
+def check_capacity(logs, masks, capacity_ah):
+    """FitError naming the unit when the capacity found makes every current a trickle in a log sampled
+    seconds apart: its stamps are milliseconds."""
+    amperes = max(float(np.percentile(np.abs(log.current_a[mask]), 99)) for log, mask in zip(logs, masks))
+    period = min(float(np.median(np.diff(log.time_s))) for log in logs)
+    if amperes < MILLISECONDS_C_RATE * capacity_ah and period >= MILLISECONDS_PERIOD_S:
+        raise FitError('%s: the time looks like milliseconds (samples %.4g apart, a %.4g Ah battery whose '
+                       'largest current is %.2g C): the time column must be in seconds'
+                       % (logs[0].name, period, capacity_ah, amperes / capacity_ah))
+
+
+def _cutoff_warning(logs, masks, cells_series, changes, warnings):
+    lowest = min(float(np.min(log.voltage_v[mask])) for log, mask in zip(logs, masks)) / cells_series
+    cutoff = changes['cell_cutoff_voltage_v']
+    if lowest < cutoff:
+        warnings.append('the logs go below the cut-off: %.3f V per cell against %.3f V (the model disconnects the '
+                        'load there; a wrong chemistry or series count?)' % (lowest, cutoff))
+
 
 def _fit_mask(log, holdout):
     t = log.time_s
@@ -163,44 +445,103 @@ def _preset_temperature(log, chemistry):
     return np.full(len(log.time_s), chemistry.params.ambient_temperature_c)
 
 
-def _series_count(logs, masks, chemistry, progress, warnings):
-    p = chemistry.params
-    high = max(float(np.max(log.voltage_v)) for log in logs)
-    low = min(float(np.min(log.voltage_v)) for log in logs)
-    top, bottom = p.ocv_voltage_v[-1] + 0.15, max(0.5 * p.ocv_voltage_v[0], p.ocv_voltage_v[0] - 0.4)
-    candidates = list(range(max(1, math.ceil(high / top)), int(low / bottom) + 1))
-    middle = 0.5 * (p.ocv_voltage_v[0] + p.ocv_voltage_v[-1])
-    candidates.sort(key=lambda n: abs(n - 0.5 * (high + low) / middle))
-    candidates = sorted(candidates[:8]) or [max(1, int(round(high / p.ocv_voltage_v[-1])))]
-    if len(candidates) == 1:
-        return candidates[0], 'the voltage range (%.2f-%.2f V) allows only this count' % (low, high)
+#: per-cell voltage a log of each chemistry can show beyond its cut-off and charge voltage (load, charge), V
+CELL_VOLTAGE_MARGIN = {'below': 0.45, 'above': 0.2}
+#: the series counts tried in full per chemistry (nearest its nominal voltage) when no percentage screens them
+FULL_FIT_CANDIDATES = 6
+#: another chemistry than the first (the preset given or Li-ion) is taken where its fit's RMSE is below this
+#: fraction of the first's: over a short span of SOC a flat curve and a sloped one can fit nearly alike
+CHEMISTRY_CLEAR = 0.7
+
+
+def _series_count(logs, masks, candidates, known, cells_series, why, progress, warnings):
+    """(series count, why, chemistry name, chemistry params): every count the fitted part's voltage range
+    allows for each chemistry's cells, scored by the fit of that chemistry's OCV shape (no offset: the
+    level is what tells the counts apart) in pack volts."""
+    voltages = np.concatenate([log.voltage_v[mask] for log, mask in zip(logs, masks)])
+    low, high = float(np.percentile(voltages, 0.1)), float(np.percentile(voltages, 99.9))
     short_logs, short_masks = [], []
     for log, mask in zip(logs, masks):
         step = max(1, len(log.time_s) // SEARCH_SAMPLES)
         short_logs.append(_thinned(log, step))
         short_masks.append(mask[::step])
-    scores = []
-    for index, count in enumerate(candidates):
-        temperatures = [_preset_temperature(log, chemistry) for log in short_logs]
-        try:
-            result = _fit_electrical(short_logs, short_masks, chemistry, count, 1, temperatures, True, None,
-                                     max_evaluations=60)
-            scores.append((result.rmse_v * count, count))   # pack volts: comparable across counts
-        except FitError:
-            pass
-        progress(0.02 + 0.2 * (index + 1) / len(candidates), 'series count')
+    short_known = known.thinned([max(1, len(log.time_s) // SEARCH_SAMPLES) for log in logs])
+    scores, tried = [], []
+    for name, params in candidates:
+        chemistry = Chemistry(params)
+        if cells_series:
+            counts = [cells_series]
+        else:
+            top = params.cell_charge_voltage_v + CELL_VOLTAGE_MARGIN['above']
+            bottom = params.cell_cutoff_voltage_v - CELL_VOLTAGE_MARGIN['below']
+            counts = list(range(max(1, math.ceil(high / top)), min(MAX_CELLS, int(low / bottom)) + 1))
+        if not counts:
+            continue
+        screened = short_known.starts(short_logs)
+        if screened is None and len(counts) > FULL_FIT_CANDIDATES:
+            nominal = float(np.interp(0.5, chemistry.soc_points, chemistry.ocv))
+            middle = float(np.median(voltages)) / nominal
+            counts = sorted(sorted(counts, key=lambda n: abs(n - middle))[:FULL_FIT_CANDIDATES])
+        tried.append('%s %s' % (name, _ranges(counts)))
+        for count in counts:
+            if screened is not None:
+                score = _screen(short_logs, short_masks, chemistry, count, short_known.capacity_ah, screened)
+            else:
+                temperatures = [_preset_temperature(log, chemistry) for log in short_logs]
+                try:
+                    result = _fit_electrical(short_logs, short_masks, chemistry, count, 1, temperatures, False,
+                                             None, max_evaluations=40, known=short_known)
+                    score = result.rmse_v * count
+                except FitError:
+                    continue
+            scores.append((score, count, name, params))
+        progress(0.02 + 0.2 * len(tried) / len(candidates), 'series count')
     if not scores:
-        raise FitError('no series count fits the voltage range %.2f-%.2f V with the %s preset'
-                       % (low, high, p.name))
-    scores.sort()
-    best = scores[0][1]
-    if len(scores) > 1 and scores[1][0] < SERIES_CLEAR * scores[0][0]:
-        warnings.append('cells in series: %d fits the %s shape best, but %d nearly as well (the pack voltage '
-                        '%.4g-%.4g V puts every cell within 2.5-4.35 V for %s cells); a pack of other cells can '
-                        'be either: --cells-series settles it' % (best, p.name, scores[1][1], low, high,
-                                                                 ', '.join(str(n) for n in candidates)))
-    return best, 'the voltage range %.2f-%.2f V and the best fit of the OCV shape among %s cells' % (
-        low, high, ', '.join(str(n) for n in candidates))
+        raise FitError('no series count of %s cells fits the voltage range %.2f-%.2f V'
+                       % (' or '.join(name for name, _ in candidates), low, high))
+    scores.sort(key=lambda item: item[0])
+    firsts = [item for item in scores if item[2] == candidates[0][0]]
+    if firsts and firsts[0] is not scores[0] and not scores[0][0] < CHEMISTRY_CLEAR * firsts[0][0]:
+        scores.remove(firsts[0])   # another chemistry only where it fits clearly better than the first
+        scores.insert(0, firsts[0])
+    score, best, name, params = scores[0]
+    bests = {}
+    for item in scores:
+        bests.setdefault(item[2], item)
+    tried = ['%s (best %d: %.3g V)' % (text, bests[text.split()[0]][1], bests[text.split()[0]][0])
+             if text.split()[0] in bests else text for text in tried]
+    if why is None:
+        rivals = [item for item in scores[1:] if item[0] < SERIES_CLEAR * score and item[1] != best]
+        if rivals:
+            warnings.append('cells in series: %d fits best (%.3g V pack RMSE), but %d nearly as well (%.3g V); '
+                            '--cells-series settles it' % (best, score, rivals[0][1], rivals[0][0]))
+        why = ('the fitted part\'s voltage %.2f-%.2f V and the best fit of the OCV shape among %s cells%s'
+               % (low, high, '; '.join(tried), ' (the SOC from the logged percentage)'
+                  if known.soc0 is not None else ''))
+    return best, why, name, params
+
+
+def _ranges(counts):
+    return '%d' % counts[0] if len(counts) == 1 else '%d-%d' % (counts[0], counts[-1])
+
+
+def _screen(logs, masks, chemistry, count, capacity_ah, soc0):
+    """Pack-volt RMSE of the chemistry's OCV shape plus resistances (least squares, preset time constants)
+    with the SOC the logged percentage gives, for ``count`` cells in series."""
+    p = chemistry.params
+    parallel = parallel_count(capacity_ah, p.cell_capacity_ah)
+    rows, targets = [], []
+    for k, (log, mask) in enumerate(zip(logs, masks)):
+        a = log_arrays(log, chemistry, count, parallel)
+        soc = state_of_charge(a, capacity_ah / parallel, soc0[k], p.coulombic_efficiency)
+        x0, _, xf = regressors(a, soc, chemistry.arrhenius(_preset_temperature(log, chemistry)), chemistry,
+                               p.tau1_s, p.tau_fast_s, False)
+        rows.append(np.column_stack([x0[mask], xf[mask]]))
+        targets.append((a.cell_voltage - chemistry.ocv_at(soc, a.weight))[mask])
+    # no slow RC pair: over a drive its long memory would stand in for the OCV's slope, the very thing that
+    # tells the chemistries and the counts apart
+    _, _, residual = _non_negative_lstsq(np.vstack(rows), np.concatenate(targets), ['r0_ohm', 'r_fast_ohm'])
+    return float(np.sqrt(np.mean(residual ** 2))) * count
 
 
 def _thinned(log, step):
@@ -209,12 +550,10 @@ def _thinned(log, step):
         value = getattr(log, name)
         if value is not None:
             setattr(copy, name, value[::step])
-    if step > 1:   # a thinned log's current: the mean over each new interval (the charge is kept)
-        t = log.time_s
-        charge = np.concatenate([[0.0], np.cumsum(log.current_a[1:] * np.diff(t))])
-        picked = charge[::step]
+    if step > 1:   # a thinned log's current: the mean over the new interval after each sample (the charge kept)
+        picked = counted_charge_ah(log)[::step] * 3600.0
         span = np.diff(copy.time_s)
-        copy.current_a = np.concatenate([[log.current_a[0]], np.diff(picked) / np.where(span > 0, span, 1.0)])
+        copy.current_a = np.concatenate([np.diff(picked) / np.where(span > 0, span, 1.0), [log.current_a[-1]]])
     return copy
 
 
@@ -234,7 +573,7 @@ class Electrical:
 
 
 def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest, start,
-                    max_evaluations=200):
+                    max_evaluations=200, known=None):
     from scipy.optimize import least_squares
     p = chemistry.params
     arrays = [log_arrays(log, chemistry, cells_series, cells_parallel) for log in logs]
@@ -246,17 +585,36 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
     else:
         z0 = [math.log(start.capacity_ah)] + list(start.soc0) + [math.log(start.tau1_s), math.log(start.tau_fast_s)]
     n = len(logs)
+    known = known or Known()
     low = [z0[0] - math.log(20.0)] + [0.0] * n + [math.log(TAU1_BOUNDS[0]), math.log(TAU_FAST_BOUNDS[0])]
     high = [z0[0] + math.log(20.0)] + [1.0] * n + [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1])]
+    if known.capacity_ah is not None:   # the capacity (and the starting SOCs) the logs fix
+        z0[0] = math.log(known.capacity_ah)
+        low[0], high[0] = z0[0] - KNOWN_SPREAD, z0[0] + KNOWN_SPREAD
+    for k in range(n):
+        if known.soc0 is not None:
+            z0[1 + k] = known.soc0[k]
+            low[1 + k], high[1 + k] = max(0.0, known.soc0[k] - KNOWN_SPREAD), min(1.0, known.soc0[k] + KNOWN_SPREAD)
     z0 = np.clip(z0, np.asarray(low) + 1e-9, np.asarray(high) - 1e-9)
-    best = {}
+    counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
+                         * a.dt) / 3600.0 * cells_parallel for a in arrays]   # pack Ah
+
+    def starts(z):
+        """Each log's starting SOC: searched, or 1 at a full charge's end."""
+        capacity = math.exp(z[0])
+        out = []
+        for k in range(n):
+            full = known.full_at[k] if known.full_at is not None and known.soc0 is None else None
+            out.append(min(1.0, max(0.0, 1.0 - counted[k][full] / capacity)) if full is not None else float(z[1 + k]))
+        return out
 
     def solve(z, use_tables):
         capacity = math.exp(z[0])
         tau1, tau_fast = math.exp(z[-2]), math.exp(z[-1])
         pieces, rows, targets = [], [], []
+        soc0 = starts(z)
         for k, a in enumerate(arrays):
-            soc = state_of_charge(a, capacity / cells_parallel, z[1 + k], p.coulombic_efficiency)
+            soc = state_of_charge(a, capacity / cells_parallel, soc0[k], p.coulombic_efficiency)
             ocv = chemistry.ocv_at(soc, a.weight)
             x0, x1, xf = regressors(a, soc, scales[k], chemistry, tau1, tau_fast, use_tables)
             pieces.append((a, soc, ocv, x0, x1, xf))
@@ -286,7 +644,7 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
     best = dict(values)
     best.setdefault('offset', 0.0)
     uncertainty = _jacobian_sigmas(solution, rmse)
-    return Electrical(capacity_ah=math.exp(solution.x[0]), soc0=[float(s) for s in solution.x[1:1 + n]],
+    return Electrical(capacity_ah=math.exp(solution.x[0]), soc0=starts(solution.x),
                       tau1_s=math.exp(solution.x[-2]), tau_fast_s=math.exp(solution.x[-1]),
                       coefficients={k: (best[k], sigmas.get(k)) for k in best}, rmse_v=rmse, use_tables=use_tables,
                       uncertainty={'capacity_ah': math.exp(solution.x[0]) * uncertainty[0],
@@ -348,7 +706,7 @@ def _capacity_guess(logs, arrays, chemistry, soc0):
     return max(chemistry.params.cell_capacity_ah, 1.2 * throughput)
 
 
-def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest):
+def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known=None):
     """The OCV at knots over the covered SOC range, when the logs cover enough of it and the learned curve
     predicts blocks of the fitted part held out in turn better than the preset's shape (else None).
     Returns {knots, values, rmse_v, resistances, sigmas, gap, smoothness, cv: (preset, curve) RMSEs, taus}."""
@@ -395,9 +753,22 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest):
     scales = [chemistry.arrhenius(temperature) for temperature in temperatures]
     arrays = [piece[0] for piece in electrical.pieces]
 
+    known = known or Known()
+    counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
+                         * a.dt) / 3600.0 for a in arrays]   # per cell, Ah
+
+    def starts(z):
+        cell_capacity = math.exp(z[2]) / electrical.cells_parallel
+        out = list(z[3:])
+        for k in range(len(arrays)):
+            full = known.full_at[k] if known.full_at is not None and known.soc0 is None else None
+            if full is not None:   # SOC 1 at a full charge's end
+                out[k] = min(1.0, max(0.0, 1.0 - counted[k][full] / cell_capacity))
+        return out
+
     def solve(z):
         cell_capacity = math.exp(z[2]) / electrical.cells_parallel
-        soc0 = list(z[3:])
+        soc0 = starts(z)
         rows, targets, pieces = [], [], []
         socs = []
         for k, a in enumerate(arrays):
@@ -426,17 +797,17 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest):
         values = np.linalg.lstsq(matrix, target, rcond=None)[0]
         return (target - matrix @ values)[:n]
 
-    # the capacity and every log's starting SOC searched again: the curve's smoothness (its bends held near the
-    # preset's) and the logs' overlap place them
-    # (or both from the logged percentage, where it moves: a shape-free reading of the charge)
-    gauge = _percentage_capacity(logs, masks)
-    capacity, soc0 = (math.log(gauge[0]), gauge[1]) if gauge else (math.log(electrical.capacity_ah), electrical.soc0)
+    # the SOC scale stays the one the logs fix (the logged percentage, a full charge and a cut-off): a learned
+    # curve must not stretch it; without them the curve's smoothness places it (checked by replay after)
+    capacity, soc0 = math.log(known.capacity_ah or electrical.capacity_ah), electrical.soc0
+    if known.soc0 is not None:
+        soc0 = known.soc0
     z0 = [math.log(electrical.tau1_s), math.log(electrical.tau_fast_s), capacity] + list(soc0)
-    spread = math.log(1.02 if gauge else 3.0)
+    spread = KNOWN_SPREAD if known.capacity_ah is not None else math.log(3.0)   # else: the replay checks it
     low_bounds = [math.log(TAU1_BOUNDS[0]), math.log(TAU_FAST_BOUNDS[0]), capacity - spread] + [
-        max(0.0, s - 0.02) if gauge else 0.0 for s in soc0]
+        max(0.0, s - 0.02) if known.capacity_ah is not None else 0.0 for s in soc0]
     high_bounds = [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1]), capacity + spread] + [
-        min(1.0, s + 0.02) if gauge else 1.0 for s in soc0]
+        min(1.0, s + 0.02) if known.capacity_ah is not None else 1.0 for s in soc0]
     z0 = np.clip(z0, np.asarray(low_bounds) + 1e-9, np.asarray(high_bounds) - 1e-9)
     solution = least_squares(residuals, z0, bounds=(low_bounds, high_bounds), x_scale='jac', diff_step=1e-4,
                              max_nfev=60)
@@ -459,7 +830,7 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest):
             'resistances': dict(zip(names[count:], resistances)),
             'sigmas': {name: sigmas.get(name) for name in names[count:]}, 'gap': gap, 'smoothness': weight,
             'cv': (preset_cv, curve_cv), 'tau1_s': math.exp(solution.x[0]), 'tau_fast_s': math.exp(solution.x[1]),
-            'soc0': [float(v) for v in solution.x[3:]], 'capacity_ah': math.exp(solution.x[2])}
+            'soc0': [float(v) for v in starts(solution.x)], 'capacity_ah': math.exp(solution.x[2])}
 
 
 def _percentage_capacity(logs, masks):
@@ -469,7 +840,7 @@ def _percentage_capacity(logs, masks):
     for index, (log, mask) in enumerate(zip(logs, masks)):
         if log.percentage is None:
             return None
-        charge = np.concatenate([[0.0], np.cumsum(log.current_a[1:] * np.diff(log.time_s))]) / 3600.0
+        charge = counted_charge_ah(log)
         use = mask & np.isfinite(log.percentage)
         if use.sum() < 10:
             return None
@@ -482,9 +853,9 @@ def _percentage_capacity(logs, masks):
     if np.ptp(target) < PERCENTAGE_SPAN:
         return None
     values = np.linalg.lstsq(np.vstack(rows), target, rcond=None)[0]
-    if not values[-1] > 0 or not all(0.0 <= v <= 1.0 for v in values[:-1]):
+    if not values[-1] > 0 or not all(-0.02 <= v <= 1.02 for v in values[:-1]):
         return None
-    return 1.0 / values[-1], [float(v) for v in values[:-1]]
+    return 1.0 / values[-1], [float(min(max(v, 0.0), 1.0)) for v in values[:-1]]
 
 
 def _cross_validated(design, target, fold, smooth, smooth_target):
@@ -619,6 +990,8 @@ def _fit_loads(logs, masks, cells_series, chemistry_params, fitted, kept):
         usable = [j for j in range(4) if np.ptp(design[:, j]) > 0 or j < 2]
         for size in range(1, len(usable) + 1):
             for subset in itertools.combinations(usable, size):
+                if (0 in subset) == (1 in subset):   # one idle term: a current or a power
+                    continue
                 values, *_ = np.linalg.lstsq(design[:, subset], target, rcond=None)
                 if (values < 0).any():
                     continue
@@ -643,7 +1016,7 @@ def _fit_loads(logs, masks, cells_series, chemistry_params, fitted, kept):
             fitted[name] = Fitted(changes[name], sources[j], found[j][1])
         elif j < 2:
             changes[name] = 0.0
-            fitted[name] = Fitted(0.0, 'the idle load is explained by %s' % names[1 - j])
+            fitted[name] = Fitted(0.0, 'one idle term, %s (it fits the standstill draw better)' % names[1 - j])
         elif not has_motion:
             kept[name] = 'no motion topic (cmd_vel / odometry) or linear_x / angular_z columns in the logs'
         else:
@@ -653,14 +1026,12 @@ def _fit_loads(logs, masks, cells_series, chemistry_params, fitted, kept):
 
 
 def _fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted, kept):
-    """The charger from every charge in the logs (held-out parts too: the replayed voltage takes the logged
-    current, so the charger's values do not enter the held-out figure)."""
+    """The charger from the charges in the fitted part of the logs."""
     p = chemistry_params
-    masks = [np.ones(len(log.time_s), dtype=bool) for log in logs]
     # a charge: more than C/40 (a sensor's noise at rest is not one)
     threshold = max(0.05, changes['cell_capacity_ah'] * cells_parallel / 40.0)
     # a charge lasts (a vehicle's regeneration, pulses of charge current while it drives, is not one)
-    masks = [_lasting(log.time_s, log.current_a > threshold, CHARGE_MIN_S) for log in logs]
+    masks = [_lasting(log.time_s, mask & (log.current_a > threshold), CHARGE_MIN_S) for log, mask in zip(logs, masks)]
     charging = [log.current_a[mask & (log.current_a > threshold)] for log, mask in zip(logs, masks)]
     currents = np.concatenate(charging)
     result = {}
@@ -706,22 +1077,23 @@ def _lasting(time_s, flags, seconds):
     return out
 
 
-def _limits(logs, cells_series, cells_parallel, chemistry_params, changes, fitted):
-    """The datasheet currents raised to what the logs show, so the model never cuts the logged load off."""
+def _limits(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted):
+    """The datasheet currents raised to what the fitted part shows (twice that: a later drive may ask for
+    more), so the model never cuts the logged load off."""
     p = chemistry_params
     result = {}
-    discharge = max(float(-np.min(log.current_a)) for log in logs) / cells_parallel
-    if discharge * 1.2 > p.cell_max_discharge_current_a:
-        result['cell_max_discharge_current_a'] = float('%.4g' % (1.2 * discharge))
+    discharge = max(float(-np.min(log.current_a[mask])) for log, mask in zip(logs, masks)) / cells_parallel
+    if discharge * LIMIT_MARGIN > p.cell_max_discharge_current_a:
+        result['cell_max_discharge_current_a'] = float('%.4g' % (LIMIT_MARGIN * discharge))
         fitted['cell_max_discharge_current_a'] = Fitted(result['cell_max_discharge_current_a'],
-                                                        'the logs\' largest discharge current + 20 %')
-    charge = max(float(np.max(log.current_a)) for log in logs) / cells_parallel
-    limit = max(charge * 1.2, changes.get('cell_max_charge_current_a', p.cell_max_charge_current_a),
+                                                        'twice the fitted part\'s largest discharge current')
+    charge = max(float(np.max(log.current_a[mask])) for log, mask in zip(logs, masks)) / cells_parallel
+    limit = max(charge * LIMIT_MARGIN, changes.get('cell_max_charge_current_a', p.cell_max_charge_current_a),
                 changes['charge_current_a'] / cells_parallel * 1.01)
     if limit > p.cell_max_charge_current_a:
         result['cell_max_charge_current_a'] = float('%.4g' % limit)
         fitted['cell_max_charge_current_a'] = Fitted(result['cell_max_charge_current_a'],
-                                                     'the logs\' largest charge current + 20 %')
+                                                     'twice the fitted part\'s largest charge current')
     load = changes.get('load_current_a', p.load_current_a)
     if load > result.get('cell_max_discharge_current_a', p.cell_max_discharge_current_a) * cells_parallel:
         result['cell_max_discharge_current_a'] = float('%.4g' % (1.2 * load / cells_parallel))
@@ -729,12 +1101,14 @@ def _limits(logs, cells_series, cells_parallel, chemistry_params, changes, fitte
 
 
 def _cell_heat(log, cells_parallel, electrical, scale):
-    i = log.current_a / cells_parallel
+    """The heat of one cell, W: the current through it (the replay's convention) squared times its resistance
+    (the electrical fit's, per cell of its own parallel count: a cell of ``cells_parallel`` has Np / Np' times)."""
+    i = flowing_current(log.current_a) / cells_parallel
     r = sum(electrical.coefficients[name][0] for name in ('r0_ohm', 'r1_ohm', 'r_fast_ohm'))
-    return i * i * r * scale
+    return i * i * r * (cells_parallel / electrical.cells_parallel) * scale
 
 
-def _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept):
+def _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept, warnings):
     """Ambient, heat capacity and transfer from the logged temperature (when it moves)."""
     from scipy.optimize import least_squares
     p = chemistry.params
@@ -773,9 +1147,27 @@ def _fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kep
     rmse = float(np.sqrt(np.mean(solution.fun ** 2)))
     sigmas = _jacobian_sigmas(solution, rmse)
     heat.update(ambient=float(solution.x[0]), capacity=math.exp(solution.x[1]), transfer=math.exp(solution.x[2]))
+    if not (sigmas[0] < AMBIENT_SIGMA_K and sigmas[2] < 1.0):   # also NaN: the logs do not tell the ambient
+        ambient = float(np.median(np.concatenate([log.temperature_c[mask] for log, mask, _ in pairs])))
+        transfer = math.log(p.cell_heat_transfer_w_per_k)
+        solution = least_squares(lambda z: residuals([ambient, z[0], transfer]), [solution.x[1]],
+                                 bounds=([math.log(0.1)], [math.log(1e6)]), x_scale='jac', max_nfev=50)
+        rmse = float(np.sqrt(np.mean(solution.fun ** 2)))
+        capacity_sigma = _jacobian_sigmas(solution, rmse)[0]
+        kept['cell_heat_transfer_w_per_k'] = ('the logged temperature does not tell the transfer to ambient from '
+                                              'the ambient (the fit gave %.3g +- %.2g degC): the ambient set to the '
+                                              'median logged temperature' % (heat['ambient'], sigmas[0]))
+        heat.update(ambient=ambient, capacity=math.exp(solution.x[0]), transfer=p.cell_heat_transfer_w_per_k)
+        sigmas = [0.0, capacity_sigma, math.inf]
     for name, value, sigma in (('ambient_temperature_c', heat['ambient'], sigmas[0]),
                                ('cell_heat_capacity_j_per_k', heat['capacity'], heat['capacity'] * sigmas[1]),
                                ('cell_heat_transfer_w_per_k', heat['transfer'], heat['transfer'] * sigmas[2])):
+        if name in kept:
+            continue
+        if name != 'ambient_temperature_c' and not sigma < value:   # also NaN
+            kept[name] = 'the fit gave %.3g +- %.2g: its uncertainty exceeds its value' % (value, sigma)
+            heat['capacity' if 'capacity' in name else 'transfer'] = getattr(p, name)
+            continue
         changes[name] = float('%.4g' % value)
         fitted[name] = Fitted(changes[name], 'the logged temperature under the fitted heat (RMSE %.2f K)' % rmse,
                               float(sigma))

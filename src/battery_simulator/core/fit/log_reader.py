@@ -7,8 +7,11 @@ installed otherwise. Topics are found by type (sensor_msgs/BatteryState; geometr
 or nav_msgs/Odometry for motion) unless named.
 """
 import csv
+import gzip
 import math
 import sys
+import zlib
+from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,6 +39,9 @@ class RawLog:
     motion_time_s: list = None
     linear_mps: list = None
     angular_radps: list = None
+    #: BatteryState.cell_voltage: how many entries it had (0: none) and, per sample, their sum (NaN: none)
+    cell_count: int = 0
+    cell_sum_v: list = field(default_factory=list)
     #: where the samples came from (topic names, columns)
     source: str = ''
     notes: list = field(default_factory=list)
@@ -55,51 +61,61 @@ def read_log(path, battery_topic=None, motion_topic=None):
         raise FitError('%s: cannot read: %s' % (path, error.strerror)) from None
     if head.startswith(b'#ROSBAG') or head.startswith(b'\x89MCAP') or head.startswith(b'SQLite format'):
         return _read_bag(path, battery_topic, motion_topic)
-    return _read_csv(path)
+    return _read_csv(path, gzipped=head.startswith(b'\x1f\x8b'))
 
 
 # -- CSV ------------------------------------------------------------------------------------------------
 
-def _read_csv(path):
+def _read_csv(path, gzipped=False):
+    """Streamed into arrays of doubles (a CSV of ten million rows stays within memory)."""
+    opener = gzip.open if gzipped else open
     try:
-        with open(path, newline='', encoding='utf-8-sig') as stream:
-            rows = list(csv.reader(stream))
+        with opener(path, 'rt', newline='', encoding='utf-8-sig') as stream:
+            rows = csv.reader(stream)
+            try:
+                header = [name.strip().lower() for name in next(rows)]
+            except StopIteration:
+                raise FitError('%s: empty file (a CSV needs a header: %s)' % (path, ', '.join(CSV_COLUMNS))) from None
+            missing = [name for name in CSV_COLUMNS if name not in header]
+            if missing:
+                raise FitError('%s line 1: the header must name the columns %s (and optionally %s), got %s'
+                               % (path, ', '.join(CSV_COLUMNS), ', '.join(CSV_OPTIONAL),
+                                  ','.join(header)[:200] or 'nothing'))
+            columns = [(name, header.index(name)) for name in CSV_COLUMNS + CSV_OPTIONAL if name in header]
+            values = {name: array('d') for name, _ in columns}
+            appends = [(values[name].append, index, name) for name, index in columns]
+            width = max(index for _, index in columns) + 1
+            for line, row in enumerate(rows, start=2):
+                if len(row) < width:
+                    if not row or all(not cell.strip() for cell in row):
+                        continue
+                    row = row + [''] * (width - len(row))
+                for append, index, name in appends:
+                    text = row[index]
+                    try:
+                        append(float(text) if text.strip() else math.nan)
+                    except ValueError:
+                        raise FitError('%s line %d: column "%s" must be a number (or empty / nan), got %r'
+                                       % (path, line, name, text.strip()[:40])) from None
     except OSError as error:
         raise FitError('%s: cannot read: %s' % (path, error.strerror)) from None
     except UnicodeDecodeError as error:
         raise FitError('%s: not a bag and not a UTF-8 text CSV file (byte %d)' % (path, error.start)) from None
+    except (EOFError, gzip.BadGzipFile, zlib.error) as error:
+        raise FitError('%s: a damaged gzip file: %s' % (path, error)) from None
     except csv.Error as error:
         raise FitError('%s: not a CSV file: %s' % (path, error)) from None
-    if not rows:
-        raise FitError('%s: empty file (a CSV needs a header: %s)' % (path, ', '.join(CSV_COLUMNS)))
-    header = [name.strip().lower() for name in rows[0]]
-    missing = [name for name in CSV_COLUMNS if name not in header]
-    if missing:
-        raise FitError('%s line 1: the header must name the columns %s (and optionally %s), got %s'
-                       % (path, ', '.join(CSV_COLUMNS), ', '.join(CSV_OPTIONAL), ','.join(header)[:200] or 'nothing'))
-    columns = {name: header.index(name) for name in CSV_COLUMNS + CSV_OPTIONAL if name in header}
-    values = {name: [] for name in columns}
-    for line, row in enumerate(rows[1:], start=2):
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        for name, index in columns.items():
-            text = row[index].strip() if index < len(row) else ''
-            try:
-                values[name].append(float(text) if text else math.nan)
-            except ValueError:
-                raise FitError('%s line %d: column "%s" must be a number (or empty / nan), got %r'
-                               % (path, line, name, text[:40])) from None
-    log = RawLog(name=str(path), source='CSV columns ' + ', '.join(columns))
+    log = RawLog(name=str(path), source='CSV columns ' + ', '.join(name for name, _ in columns))
     log.time_s = values['time']
     log.voltage_v = values['voltage']
     log.current_a = values['current']
     count = len(log.time_s)
-    log.temperature_c = values.get('temperature', [math.nan] * count)
-    log.percentage = values.get('percentage', [math.nan] * count)
+    log.temperature_c = values.get('temperature', array('d', [math.nan]) * count)
+    log.percentage = values.get('percentage', array('d', [math.nan]) * count)
     if 'linear_x' in values or 'angular_z' in values:
-        log.motion_time_s = list(log.time_s)
-        log.linear_mps = [abs(v) for v in values.get('linear_x', [0.0] * count)]
-        log.angular_radps = [abs(v) for v in values.get('angular_z', [0.0] * count)]
+        log.motion_time_s = log.time_s
+        log.linear_mps = values.get('linear_x', array('d', [0.0]) * count)
+        log.angular_radps = values.get('angular_z', array('d', [0.0]) * count)
     return log
 
 
@@ -242,6 +258,10 @@ def _take(log, is_battery, msgtype, message, received_s):
         log.current_a.append(float(message.current))
         log.temperature_c.append(float(message.temperature))
         log.percentage.append(float(message.percentage))
+        cells = [float(v) for v in getattr(message, 'cell_voltage', ()) if math.isfinite(float(v)) and v > 0]
+        if cells:
+            log.cell_count = max(log.cell_count, len(cells))
+        log.cell_sum_v.append(sum(cells) if cells else math.nan)
         return
     if msgtype.endswith('Odometry'):
         twist = message.twist.twist

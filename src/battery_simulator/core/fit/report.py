@@ -39,6 +39,25 @@ def figures(result):
     return Figures(voltages, _rmse(np.concatenate(fit_errors)), _rmse(np.concatenate(held_errors)), per_log)
 
 
+def replayed_rmse(result, most_samples):
+    """The voltage RMSE (pack V) of the fitted samples of ``result``'s logs replayed with its parameters, each
+    log thinned to at most ``most_samples`` (its current the mean over each new interval: the charge kept)."""
+    errors = []
+    for log, soc, mask in zip(result.logs, result.initial_soc, result.fit_masks):
+        end = int(np.flatnonzero(mask)[-1]) + 1
+        step = max(1, end // most_samples)
+        t = log.time_s[:end]
+        charge = np.concatenate([[0.0], np.cumsum(log.current_a[:end - 1] * np.diff(t))])[::step]
+        times = t[::step]
+        span = np.diff(times)
+        current = np.concatenate([np.diff(charge) / np.where(span > 0, span, 1.0), [log.current_a[end - 1]]])
+        profile = [(float(a), 'current', float(b)) for a, b in zip(times, current)]
+        rows = replay(result.params, profile, state_of_charge=min(max(soc, 0.0), 1.0))
+        model = np.array([float(row[1]) for row in rows])
+        errors.append(model - log.voltage_v[:end:step])
+    return _rmse(np.concatenate(errors))
+
+
 def _rmse(values):
     return float(np.sqrt(np.mean(np.square(values)))) if len(values) else math.nan
 

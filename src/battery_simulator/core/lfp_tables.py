@@ -1,0 +1,41 @@
+"""The OCV tables of an LFP (LiFePO4) cell, the chemistry ``lfp`` (config key ``chemistry``; no ROS).
+
+LFP's open-circuit voltage is flat (about 3.2-3.35 V over most of its range) and its charge branch lies
+clearly above the discharge branch (hysteresis); its cut-off is 2.0 V and its charge voltage 3.6 V. A
+config that says ``chemistry: lfp`` and gives no OCV table of its own gets these (the model is unchanged:
+it reads whatever tables the parameters hold).
+
+The discharge branch: the voltage at the end of the 57 s rests of the DST test of an A123 APR18650M1A cell
+at 20 degC (its SOC counted from the CC-CV charge's end over the 1.04 Ah it then delivered to 2.0 V), the
+last ~20 mV of relaxation added at mid range; the ends (below 4 % and above 96 % SOC) from the same log's
+1C discharge to 2.0 V and its CC-CV charge to 3.6 V. The charge branch: the discharge branch plus the
+hysteresis the same cell's 1C charge shows at mid range. Data: CALCE Battery Research Group, University
+of Maryland (A123 dynamic tests, test/data/measured/); cite Zheng et al. (2016) Applied Energy 183,
+513-525 and Xing et al. (2014) Applied Energy 113, 106-115.
+"""
+
+#: the config key's values; 'li-ion' (NMC / NCA, the default) keeps the tables of the preset or config
+CHEMISTRIES = ('li-ion', 'lfp')
+
+LFP_OCV_SOC = (0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1, 0.125, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4,
+               0.45, 0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95, 0.97, 0.99, 1.0)
+LFP_OCV_VOLTAGE_V = (2.00, 2.80, 2.93, 3.02, 3.07, 3.10, 3.13, 3.17, 3.19, 3.20, 3.21, 3.23, 3.245, 3.257,
+                     3.267, 3.275, 3.281, 3.286, 3.290, 3.293, 3.298, 3.307, 3.318, 3.326, 3.332, 3.337,
+                     3.347, 3.360, 3.420, 3.600)
+#: the charge branch: at or above the discharge branch, the hysteresis largest at mid range
+LFP_OCV_GAP_V = (0.0, 0.02, 0.03, 0.035, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04,
+                 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04, 0.035, 0.03, 0.03, 0.03, 0.025, 0.02, 0.01, 0.0)
+LFP_OCV_CHARGE_VOLTAGE_V = tuple(round(v + g, 4) for v, g in zip(LFP_OCV_VOLTAGE_V, LFP_OCV_GAP_V))
+
+
+#: the cell's voltage limits of each chemistry, V
+LIMITS = {'lfp': {'cell_charge_voltage_v': 3.6, 'cell_cutoff_voltage_v': 2.0}}
+
+
+def chemistry_tables(chemistry):
+    """The OCV keys (ocv_soc, ocv_voltage_v, ocv_charge_voltage_v) of ``chemistry``; None for li-ion
+    (its tables are the preset's or the config's own)."""
+    if chemistry == 'lfp':
+        return {'ocv_soc': LFP_OCV_SOC, 'ocv_voltage_v': LFP_OCV_VOLTAGE_V,
+                'ocv_charge_voltage_v': LFP_OCV_CHARGE_VOLTAGE_V}
+    return None
