@@ -1,0 +1,146 @@
+"""The pack's charge rules (interface Part 5; issue 40, item 16), step by step and by hand arithmetic. No ROS.
+
+- The constant-voltage phase holds the HIGHEST group (by its voltage) at the cell charge voltage: the string's
+  one current is the least any group's CC-CV allows, so no group passes 4.2 V and every group carries it.
+- Balancing may start once the highest group's voltage, as the step begins, is at or above
+  ``start_voltage_v``, only while charging; then every group more than ``threshold_v`` above the lowest
+  bleeds ``current_a`` (at most the string's current).
+
+Planted bugs in these rules (the CV held on another group, a group charged past the others, balancing on
+the lowest group's voltage, or before the start voltage, or while discharging) survived the tests before.
+"""
+import pytest
+
+from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.pack import GroupedPack, make_model
+from battery_simulator.core.parameters import from_mapping
+
+CAPACITY_AS = 2.781 * 3600.0   # one lg_hg2_cell, A*s
+EFFICIENCY = 0.999             # its coulombic efficiency
+
+
+def two_groups(groups, **changes):
+    """2S of the LG HG2 cell, ageless (the arithmetic is the string's alone)."""
+    params = from_mapping(dict(changes, preset='lg_hg2_cell', cells_series=2, groups=groups,
+                               capacity_fade_per_cycle=0.0))
+    return params
+
+
+def test_the_cv_phase_holds_the_highest_group_at_the_charge_voltage_with_one_current_in_every_group():
+    """The higher group is the SECOND one (a rule that holds the first group, or the lowest, fails here).
+    Equal capacities and one current: the SOC spread (0.06) stays exactly as it was to the end."""
+    pack = make_model(two_groups([{'initial_soc_offset': -0.03}, {'initial_soc_offset': 0.03}]), 0.85,
+                      mode=Mode.CHARGE)
+    assert isinstance(pack, GroupedPack)
+    low, high = pack.groups
+    demand = pack.params.charge_current_a   # 1.5 A
+    cv_steps = 0
+    while pack.status is Status.CHARGING:
+        pack.step(10.0)
+        if pack.status is not Status.CHARGING:
+            break
+        # one string: both groups carry the pack's current
+        assert low.cell_current_a == high.cell_current_a == pytest.approx(pack.current_a, rel=1e-12)
+        assert high.cell_voltage_v > low.cell_voltage_v
+        # no group above the charge voltage (within what the lumped model allows at 10 s steps: 1 mV)
+        assert high.cell_voltage_v <= 4.2 + 1e-3
+        if pack.current_a < demand * (1.0 - 1e-9):   # the CV phase: the highest group is held at 4.2 V
+            cv_steps += 1
+            assert high.cell_voltage_v == pytest.approx(4.2, abs=1e-3), (cv_steps, high.cell_voltage_v)
+            assert low.cell_voltage_v < 4.2 - 0.01
+    assert cv_steps > 100 and pack.status is Status.FULL
+    assert high.state_of_charge - low.state_of_charge == pytest.approx(0.06, abs=1e-9), 'the spread kept'
+    assert high.state_of_charge == pytest.approx(1.0, abs=5e-4), 'the highest group is full'
+    assert pack.snapshot().true_percentage == pytest.approx(100.0, abs=0.05)
+
+
+def test_the_highest_group_by_voltage_not_by_charge_holds_the_cv():
+    """Group 0 holds less charge (SOC 0.96 against 0.97) but has three times the resistance: its voltage
+    is the higher through the CV phase, so it is the one held at 4.2 V, and the other stays below."""
+    pack = make_model(two_groups([{'resistance_factor': 3.0, 'initial_soc_offset': -0.005},
+                                  {'initial_soc_offset': 0.005}]), 0.965, mode=Mode.CHARGE)
+    resistive, other = pack.groups
+    held = 0
+    for _ in range(60):   # 10 min of CV
+        pack.step(10.0)
+        if pack.status is not Status.CHARGING:
+            break
+        assert resistive.cell_current_a == other.cell_current_a
+        if pack.current_a < pack.params.charge_current_a - 1e-9:
+            held += 1
+            assert resistive.cell_voltage_v == pytest.approx(4.2, abs=1e-3)
+            assert other.cell_voltage_v < resistive.cell_voltage_v - 0.002
+    assert held > 20
+    assert resistive.state_of_charge < other.state_of_charge
+
+
+def expected_bleeds(voltages, bleed_a, start_v, threshold_v, current_a):
+    """Part 5's rule by hand: with the highest group at or above the start voltage as the step begins,
+    every group more than the threshold above the lowest bleeds (at most the string's current)."""
+    if max(voltages) < start_v:
+        return [0.0] * len(voltages)
+    return [min(bleed_a, current_a) if v - min(voltages) > threshold_v else 0.0 for v in voltages]
+
+
+def test_balancing_starts_when_the_highest_group_reaches_the_start_voltage_and_bleeds_as_the_rule_says():
+    """2S at SOC 0.5 and 0.54, charged at 1.5 A, start 3.9 V: for a while the higher group is above
+    3.9 V and the lower below it (balancing on; a rule on the lowest group's voltage fails), and before
+    that neither is (balancing off; a rule that ignores the start fails). Each step's bleeds are
+    checked against the voltages as the step began, and the spread against the arithmetic:
+    unchanged without a bleed (one current, equal capacities), closing eta x 0.1 A / C a second with."""
+    bleed_a, start_v, threshold_v = 0.1, 3.9, 0.01
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.04}],
+                                 balancing={'current_a': bleed_a, 'start_voltage_v': start_v,
+                                            'threshold_v': threshold_v}), 0.5, mode=Mode.CHARGE)
+    low, high = pack.groups
+    spread = high.state_of_charge - low.state_of_charge
+    phases = set()
+    for _ in range(400):
+        voltages = [g.cell_voltage_v for g in pack.groups]   # as the step begins
+        pack.step(10.0)
+        assert pack.status is Status.CHARGING
+        current = pack.current_a
+        bleeds = expected_bleeds(voltages, bleed_a, start_v, threshold_v, current)
+        assert pack.bleeding == [b > 0.0 for b in bleeds], (voltages, pack.bleeding)
+        assert low.cell_current_a == pytest.approx(current - bleeds[0], abs=1e-12)
+        assert high.cell_current_a == pytest.approx(current - bleeds[1], abs=1e-12)
+        spread -= EFFICIENCY * (bleeds[1] - bleeds[0]) * 10.0 / CAPACITY_AS
+        assert high.state_of_charge - low.state_of_charge == pytest.approx(spread, abs=1e-9)
+        phases.add((max(voltages) >= start_v, min(voltages) >= start_v))
+        if min(voltages) >= start_v:
+            break
+    assert phases >= {(False, False), (True, False), (True, True)}, 'off, on with the lower group below 3.9 V'
+    assert spread < 0.04 - 0.002, 'the bleed closed the spread'
+
+
+def test_balancing_never_acts_while_discharging_or_at_rest():
+    """Above the start voltage and far apart, but no charge: no bleed, the spread unchanged."""
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.05}],
+                                 balancing={'current_a': 0.1, 'start_voltage_v': 3.0, 'threshold_v': 0.001}),
+                      0.9, mode=Mode.DISCHARGE)
+    low, high = pack.groups
+    spread = high.state_of_charge - low.state_of_charge
+    for mode in (Mode.DISCHARGE, Mode.IDLE):
+        pack.set_mode(mode)
+        for _ in range(30):
+            pack.step(10.0)
+            assert pack.bleeding == [False, False]
+            assert low.cell_current_a == high.cell_current_a
+    assert high.state_of_charge - low.state_of_charge == pytest.approx(spread, abs=1e-12)
+
+
+def test_a_bleed_is_never_more_than_the_string_current():
+    """Late in the CV phase the string's current falls below a 0.3 A bleed: the bleeding group then takes
+    nothing (not a negative current: the bleed resistor takes what the string brings, no more)."""
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.02}],
+                                 balancing={'current_a': 0.3, 'start_voltage_v': 3.5, 'threshold_v': 0.001}),
+                      0.9, mode=Mode.CHARGE)
+    low, high = pack.groups
+    below = 0
+    while pack.status is Status.CHARGING:
+        pack.step(10.0)
+        if pack.status is Status.CHARGING and pack.bleeding[1] and pack.current_a < 0.3:
+            below += 1
+            assert high.cell_current_a == 0.0 and low.cell_current_a == pytest.approx(pack.current_a)
+        assert high.cell_current_a >= 0.0
+    assert below > 0
