@@ -549,6 +549,8 @@ PRESET_TEMPLATE = '''\
 # branch, at or above the other). Resistances (by SOC and direction), the fast and
 # the slow RC pair and the hysteresis: fitted to the 0.5C and 2C discharges and
 # the 3 A CC-CV charges. Thermal: fitted to the 2C warming (cell in the test rig).
+# The charge's end: the OCV top (SOC 0.9-1) and the charging factors refitted so that
+# the charges end at SOC 1 at 50 mA, the measured end (fit_lg_hg2.py --charge-end).
 name: lg_hg2_cell
 source: LG HG2 cell tests, Kollmeyer et al. 2020, doi:10.17632/cp3473x7xv.3 (CC BY 4.0)
 cells_series: 1

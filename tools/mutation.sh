@@ -45,7 +45,11 @@ fi
 work="$root/build/mutation"
 rm -rf "$work"
 mkdir -p "$work"
-cp -r "$root/src" "$root/test" "$root/config" "$root/docs" "$work/"
+# what the tests read beside the sources (interface files, launch files, the package manifest)
+copied=()
+for entry in src test config docs action msg srv cfg launch scripts package.xml CMakeLists.txt; do
+  if [ -e "$root/$entry" ]; then cp -r "$root/$entry" "$work/"; copied+=("$entry"); fi
+done
 generated="$root/build/devel/lib/python3/dist-packages/battery_simulator"
 for package in msg srv cfg; do
   if [ -d "$generated/$package" ]; then cp -r "$generated/$package" "$work/src/battery_simulator/"; fi
@@ -56,10 +60,8 @@ source_paths =
 $(printf '  %s\n' "${paths[@]}")
 pytest_add_cli_args_test_selection =
 $(printf '  %s\n' "${tests[@]}")
-also_copy = src/
-  config/
-  docs/
-  test/
+also_copy =
+$(printf '  %s\n' "${copied[@]}")
 pytest_add_cli_args =
   -p
   no:cacheprovider

@@ -92,7 +92,7 @@ class BatteryParameters:
     hysteresis_ah: float = 0.1
     #: fraction of the charge put in that is stored, 0 < eta <= 1
     coulombic_efficiency: float = 0.999
-    #: constant-voltage limit per cell, V (must lie within the OCV table)
+    #: constant-voltage limit per cell, V (above the OCV table's start, at most 0.05 V above its top)
     cell_charge_voltage_v: float = 4.2
     #: discharge cut-off per cell, V (the load is disconnected there)
     cell_cutoff_voltage_v: float = 2.8
