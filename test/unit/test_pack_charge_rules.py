@@ -9,9 +9,11 @@
 Planted bugs in these rules (the CV held on another group, a group charged past the others, balancing on
 the lowest group's voltage, or before the start voltage, or while discharging) survived the tests before.
 """
+import math
+
 import pytest
 
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_model import CutOff, Mode, Status
 from battery_simulator.core.pack import GroupedPack, make_model
 from battery_simulator.core.parameters import from_mapping
 
@@ -144,3 +146,98 @@ def test_a_bleed_is_never_more_than_the_string_current():
             assert high.cell_current_a == 0.0 and low.cell_current_a == pytest.approx(pack.current_a)
         assert high.cell_current_a >= 0.0
     assert below > 0
+
+
+def group_charges_as(pack):
+    return [g.state_of_charge * g._capacity_as for g in pack.groups]
+
+
+def test_large_steps_into_the_cv_phase_keep_one_current_no_group_above_4v2_and_move_only_what_flowed():
+    """Steps of 10 min from the CC phase into the CV phase: within a step the highest group reaches 4.2 V,
+    so the string's current is the least the groups' CC-CV allows (tried group by group). Every group
+    carries it, none passes 4.2 V by more than the lumped model does, and each group's charge moves by
+    eta x that current x the step."""
+    pack = make_model(two_groups([{'resistance_factor': 2.0}, {'initial_soc_offset': 0.03}]), 0.80,
+                      mode=Mode.CHARGE)
+    limited = 0
+    while pack.status is Status.CHARGING:
+        before = group_charges_as(pack)
+        pack.step(600.0)
+        current = pack.snapshot().current_a
+        if pack.status is Status.CHARGING:
+            assert pack.groups[0].cell_current_a == pack.groups[1].cell_current_a == pytest.approx(current)
+            # (at 10 min steps the lumped model itself ends a CV step up to 21 mV high: resistances by SOC)
+            assert max(g.cell_voltage_v for g in pack.groups) <= 4.2 + 0.025
+            limited += current < pack.params.charge_current_a - 1e-9
+            for start, group in zip(before, pack.groups):
+                assert group.state_of_charge * group._capacity_as - start == pytest.approx(
+                    EFFICIENCY * current * 600.0, rel=1e-9)
+    assert limited >= 3 and pack.status is Status.FULL
+
+
+def test_a_pack_whose_taper_ends_at_its_termination_current_ends_there_moving_nothing():
+    """A termination current of 0.5 A: the taper ends well before any group is full. The step that ends it
+    carries no current (no charge counted, none moved), the pack reads FULL at 0 A (a charger that
+    switches off), and it stays so."""
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.02}], termination_current_a=0.5,
+                                 charger_holds_full=False), 0.9, mode=Mode.CHARGE)
+    while pack.status is Status.CHARGING:
+        before = (group_charges_as(pack), pack.throughput_as, pack.snapshot().current_a)
+        pack.step(10.0)
+    charges, throughput, last_current = before
+    assert pack.status is Status.FULL and 0.5 < last_current < 0.6
+    assert group_charges_as(pack) == charges and pack.throughput_as == throughput
+    assert pack.snapshot().current_a == 0.0 and all(g.cell_current_a == 0.0 for g in pack.groups)
+    assert max(g.state_of_charge for g in pack.groups) < 0.995, 'ended by the taper, not by a full group'
+    pack.step(60.0)
+    assert pack.status is Status.FULL and group_charges_as(pack) == charges
+
+
+def test_a_pack_with_a_charger_fault_or_an_over_current_charges_nothing():
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.02}]), 0.5, mode=Mode.CHARGE)
+    charges = group_charges_as(pack)
+    pack.set_charger_fault(True)
+    pack.step(60.0)
+    assert (pack.status, pack.snapshot().current_a, group_charges_as(pack)) == (Status.NOT_CHARGING, 0.0, charges)
+    pack.set_charger_fault(False)
+    pack.step(60.0, current_a=4.5)   # above the cell's 4 A maximum charge current
+    assert (pack.status, pack.cut_off, pack.snapshot().current_a) == (Status.NOT_CHARGING, CutOff.OVER_CURRENT, 0.0)
+    assert group_charges_as(pack) == charges
+    pack.step(60.0, current_a=4.0)   # exactly the maximum: allowed
+    assert pack.status is Status.CHARGING and pack.cut_off is None
+    assert pack.groups[0].cell_current_a == pack.groups[1].cell_current_a == 4.0
+
+
+def test_a_bleed_resistor_heats_its_group_as_the_lumped_thermal_mass_says():
+    """_heat: P held over dt into a mass C exchanging G with ambient: a rise of P/G (1 - exp(-dt G / C))."""
+    pack = make_model(two_groups([{}, {}]), 0.5, mode=Mode.IDLE)
+    group = pack.groups[1]
+    p = pack.params
+    before = group.temperature_c
+    pack._heat(group, 0.5, 120.0)
+    rise = 0.5 / p.cell_heat_transfer_w_per_k * (1.0 - math.exp(-120.0 * p.cell_heat_transfer_w_per_k
+                                                                / p.cell_heat_capacity_j_per_k))
+    assert group.temperature_c - before == pytest.approx(rise, rel=1e-12)
+
+
+def test_set_state_puts_every_group_there_and_a_refused_one_changes_no_group():
+    params = two_groups([{'capacity_factor': 0.98}, {'initial_soc_offset': 0.03}],
+                        gauge={'model': 'coulomb_counter'})
+    pack = make_model(params, 0.8, mode=Mode.IDLE)
+    pack.set_state(state_of_charge=0.4, temperature_c=31.0, state_of_health=0.9, gauge_error=2.0)
+    assert [g.state_of_charge for g in pack.groups] == [0.4, 0.4]
+    assert [g.temperature_c for g in pack.groups] == [31.0, 31.0]
+    assert [g.state_of_health for g in pack.groups] == [0.9, 0.9]
+    assert pack.snapshot().percentage == pytest.approx(42.0) and pack.snapshot().true_percentage == pytest.approx(40.0)
+    states = [g._state() for g in pack.groups]
+    with pytest.raises(ValueError):
+        pack.set_state(state_of_charge=0.6, temperature_c=31.0, state_of_health=0.9, gauge_error=80.0)
+    assert [g._state() for g in pack.groups] == states
+
+
+def test_a_pack_resumes_from_a_state_saved_without_its_groups():
+    """A lumped pack's state file given to a pack of groups: every group resumes from the pack's values."""
+    lumped = make_model(from_mapping({'preset': 'lg_hg2_cell', 'cells_series': 2}), 0.7, mode=Mode.IDLE)
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.02}]), 1.0, mode=Mode.IDLE)
+    pack.restore_state(lumped.export_state())
+    assert [g.state_of_charge for g in pack.groups] == pytest.approx([0.7, 0.7])

@@ -258,11 +258,8 @@ class GroupedPack(BatteryModel):
         """Every group tried at ``demand``: the least current wins (0 and FULL at the taper's end)."""
         tried = {index: self._try(index, dt_s, demand) for index in range(len(self.groups))}
         current = min(tried[index][0] for index in range(len(self.groups)))
-        if any(ended for _, _, ended in tried.values()) or (
-                current <= 0.0 and any(g.state_of_charge >= 1.0 for g in self.groups)):
-            self._end_charge()   # a group's taper has ended, or a group is full: the string takes no more
-            return 0.0
-        if current <= 0.0:
+        if current <= 0.0 or any(ended for _, _, ended in tried.values()):
+            self._end_charge()   # a group's taper has ended (or a group is full): the string takes no more
             return 0.0
         self._charge_at(dt_s, demand, current, tried, check=False)
         return current
@@ -305,10 +302,8 @@ class GroupedPack(BatteryModel):
         self._become_full()
 
     def _bleeds(self, current):
-        """The bleed current of each group now (passive balancing while charging), A."""
+        """The bleed current of each group in a charging step at the string's ``current`` (> 0), A."""
         balancing = self.params.balancing
-        if not balancing or current <= 0.0:
-            return [0.0] * len(self.groups)
         voltages = self._voltages   # as the step began (_charge_groups)
         if max(voltages) < balancing['start_voltage_v']:
             return [0.0] * len(self.groups)
