@@ -4,7 +4,8 @@
     tools/fit_lg_hg2.py            # fit, print the preset and the table of errors (with hold-outs)
     tools/fit_lg_hg2.py --write    # also write config/presets/lg_hg2_cell.yaml
     tools/fit_lg_hg2.py --plot docs/model_vs_hg2.png   # the shipped preset against the measurements, no fit
-    tools/fit_lg_hg2.py --charge-end [--write]         # step 4 alone, on the shipped preset
+    tools/fit_lg_hg2.py --charge-end [--write]         # step 4 alone, on the shipped preset (and two
+                                                       # hold-outs: fitted on charges 1-2, on 3-4)
 
 The model (core/battery_model.py): OCV with a discharge and a charge branch and
 one hysteresis state, R0, a fast RC pair (charge transfer) and a slow one
@@ -406,6 +407,14 @@ def main():
         print_table('The shipped preset', shipped, data)
         params = fit_charge_end(shipped, data)
         print_table('Its charge\'s end refitted (SOC 1 at the termination current)', params, data)
+        if not args.no_hold_out:
+            charges, phases = data.charges, data.charge_phases
+            for kept in ((0, 1), (2, 3)):
+                data.charges, data.charge_phases = [charges[k] for k in kept], [phases[k] for k in kept]
+                held = fit_charge_end(shipped, data, scales=(0.98,))
+                data.charges, data.charge_phases = charges, phases
+                print_table('Hold-out: the charge\'s end fitted on charges %d and %d only' % tuple(k + 1 for k in kept),
+                            held, data)
         if args.write:
             PRESET.write_text(preset_yaml(params), encoding='utf-8')
             print('wrote %s' % PRESET)
