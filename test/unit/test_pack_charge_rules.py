@@ -275,3 +275,15 @@ def test_the_bleed_resistor_takes_its_current_times_the_group_voltage_per_cell()
     assert group is pack.groups[1] and dt == 10.0
     # (the group's voltage as its step ended; the heat itself then moves it by a few uV through Arrhenius)
     assert power == pytest.approx(0.2 * group.cell_voltage_v / 2, rel=1e-5)
+
+
+def test_a_new_pack_bleeds_nothing_and_its_groups_end_their_taper_at_the_packs_termination_current():
+    """A spread pack with the C/20 default: every group's taper ends at the pack's C/20 (of the design
+    capacity), not at its own (its capacity differs), and no group bleeds before a charge."""
+    params = from_mapping({'preset': 'lg_hg2_cell', 'cells_series': 2, 'termination_current_a': None,
+                           'groups': [{'capacity_factor': 0.9}, {}],
+                           'balancing': {'current_a': 0.05, 'start_voltage_v': 4.1, 'threshold_v': 0.01}})
+    pack = make_model(params, 0.5, mode=Mode.IDLE)
+    assert pack.bleeding == [False, False]
+    assert [g.params.pack_termination_current_a for g in pack.groups] == [2.781 / 20] * 2
+    assert [g.params.cells_series for g in pack.groups] == [1, 1]
