@@ -287,3 +287,26 @@ def test_a_new_pack_bleeds_nothing_and_its_groups_end_their_taper_at_the_packs_t
     assert pack.bleeding == [False, False]
     assert [g.params.pack_termination_current_a for g in pack.groups] == [2.781 / 20] * 2
     assert [g.params.cells_series for g in pack.groups] == [1, 1]
+
+
+def test_a_pack_at_rest_carries_nothing_and_relaxes_and_a_small_charge_current_charges():
+    """At rest: NOT_CHARGING, 0 A, no charge counted, every group's RC voltage relaxing, no bleed left
+    from the charge before. A charge of 0.5 A (below a cell's 1 A) charges every group by eta x 0.5 A x dt."""
+    pack = make_model(two_groups([{}, {'initial_soc_offset': 0.04}],
+                                 balancing={'current_a': 0.1, 'start_voltage_v': 3.0, 'threshold_v': 0.001}),
+                      0.5, mode=Mode.CHARGE)
+    pack.step(60.0)
+    assert pack.bleeding == [False, True]
+    pack.set_mode(Mode.IDLE)
+    rc = [g.rc_voltage_v for g in pack.groups]
+    charges, throughput = group_charges_as(pack), pack.throughput_as
+    pack.step(600.0)
+    assert (pack.status, pack.snapshot().current_a, pack.throughput_as) == (Status.NOT_CHARGING, 0.0, throughput)
+    assert group_charges_as(pack) == charges and pack.bleeding == [False, False]
+    assert all(0.0 < g.rc_voltage_v < r for g, r in zip(pack.groups, rc)), 'relaxing after the charge'
+    before = group_charges_as(pack)
+    pack.step(100.0, current_a=0.5)
+    for start, group in zip(before, pack.groups):
+        bleed = 0.1 if pack.bleeding[pack.groups.index(group)] else 0.0
+        assert group.state_of_charge * group._capacity_as - start == pytest.approx(
+            EFFICIENCY * (0.5 - bleed) * 100.0, rel=1e-9)
