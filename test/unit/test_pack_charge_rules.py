@@ -158,7 +158,7 @@ def test_large_steps_into_the_cv_phase_keep_one_current_no_group_above_4v2_and_m
     so the string's current is the least the groups' CC-CV allows (tried group by group). Every group
     carries it, none passes 4.2 V by more than the lumped model does, and each group's charge moves by
     eta x that current x the step."""
-    pack = make_model(two_groups([{'resistance_factor': 2.0}, {'initial_soc_offset': 0.03}]), 0.60,
+    pack = make_model(two_groups([{'resistance_factor': 2.0}, {'initial_soc_offset': 0.03}]), 0.75,
                       mode=Mode.CHARGE)
     assert max(g.cell_voltage_v for g in pack.groups) < 4.2 - 0.15, 'the first step starts in the CC phase'
     limited = 0
@@ -174,7 +174,7 @@ def test_large_steps_into_the_cv_phase_keep_one_current_no_group_above_4v2_and_m
             for start, group in zip(before, pack.groups):
                 assert group.state_of_charge * group._capacity_as - start == pytest.approx(
                     EFFICIENCY * current * 1200.0, rel=1e-9)
-    assert limited >= 2 and pack.status is Status.FULL
+    assert limited >= 1 and pack.status is Status.FULL
 
 
 def test_a_pack_whose_taper_ends_at_its_termination_current_ends_there_moving_nothing():
@@ -304,8 +304,9 @@ def test_a_pack_at_rest_carries_nothing_and_relaxes_and_a_small_charge_current_c
     assert (pack.status, pack.snapshot().current_a, pack.throughput_as) == (Status.NOT_CHARGING, 0.0, throughput)
     assert group_charges_as(pack) == charges and pack.bleeding == [False, False]
     assert all(0.0 < g.rc_voltage_v < r for g, r in zip(pack.groups, rc)), 'relaxing after the charge'
-    before = group_charges_as(pack)
+    before, throughput = group_charges_as(pack), pack.throughput_as
     pack.step(100.0, current_a=0.5)
+    assert pack.throughput_as - throughput == pytest.approx(0.5 * 100.0, rel=1e-12), 'counted in, per cell'
     for start, group in zip(before, pack.groups):
         bleed = 0.1 if pack.bleeding[pack.groups.index(group)] else 0.0
         assert group.state_of_charge * group._capacity_as - start == pytest.approx(
