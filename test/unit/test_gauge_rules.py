@@ -81,3 +81,9 @@ def test_add_error_allows_exactly_0_and_100_and_names_where_it_would_put_the_gau
     assert str(refused.value) == ('gauge_error = -60.0 is invalid: it puts the gauge at -10.0 % (now 50.0 %): '
                                   'the percentage must stay in [0, 100]')
     assert gauge.soc == 0.5, 'refused: nothing changed'
+
+
+def test_an_explicit_ideal_gauge_is_none_a_counter_otherwise():
+    from battery_simulator.core.gauge import make_gauge
+    assert make_gauge({'model': 'ideal'}, 2.5, 0.5) is None and make_gauge(None, 2.5, 0.5) is None
+    assert isinstance(make_gauge({'model': 'coulomb_counter'}, 2.5, 0.5), CoulombCounter)

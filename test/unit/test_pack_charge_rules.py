@@ -311,3 +311,22 @@ def test_a_pack_at_rest_carries_nothing_and_relaxes_and_a_small_charge_current_c
         bleed = 0.1 if pack.bleeding[pack.groups.index(group)] else 0.0
         assert group.state_of_charge * group._capacity_as - start == pytest.approx(
             EFFICIENCY * (0.5 - bleed) * 100.0, rel=1e-9)
+
+
+@pytest.mark.parametrize('current_a, power_w', [(1.0, 10.0), (0.0, 0.5)])
+def test_the_modes_load_of_a_current_and_a_power_on_alike_groups_is_the_lumped_packs(current_a, power_w):
+    """The mode's demand: load_current_a and load_power_w together (and a power under 1 W), 2S2P."""
+    keys = {'preset': 'lg_hg2_cell', 'cells_series': 2, 'cells_parallel': 2, 'load_current_a': current_a,
+            'load_power_w': power_w}
+    lumped = make_model(from_mapping(keys), 0.8, mode=Mode.DISCHARGE)
+    pack = make_model(from_mapping(dict(keys, groups=[{}, {}])), 0.8, mode=Mode.DISCHARGE)
+    for model in (lumped, pack):
+        model.step(60.0)
+    assert pack.snapshot().current_a == pytest.approx(lumped.snapshot().current_a, rel=1e-9)
+    assert pack.snapshot().voltage_v == pytest.approx(lumped.snapshot().voltage_v, rel=1e-9)
+
+
+def test_a_power_beyond_what_the_pack_can_deliver_cuts_it_off():
+    pack = make_model(two_groups([{}, {}]), 0.8, mode=Mode.IDLE)
+    pack.step(1.0, power_w=-1e5)
+    assert (pack.status, pack.cut_off, pack.snapshot().current_a) == (Status.EMPTY, CutOff.POWER_LIMIT, 0.0)
