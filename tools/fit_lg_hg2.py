@@ -4,6 +4,8 @@
     tools/fit_lg_hg2.py            # fit, print the preset and the table of errors (with hold-outs)
     tools/fit_lg_hg2.py --write    # also write config/presets/lg_hg2_cell.yaml
     tools/fit_lg_hg2.py --plot docs/model_vs_hg2.png   # the shipped preset against the measurements, no fit
+    tools/fit_lg_hg2.py --charge-end [--write]         # step 4 alone, on the shipped preset (and two
+                                                       # hold-outs: fitted on charges 1-2, on 3-4)
 
 The model (core/battery_model.py): OCV with a discharge and a charge branch and
 one hysteresis state, R0, a fast RC pair (charge transfer) and a slow one
@@ -23,6 +25,12 @@ direction, Arrhenius in temperature.
    own charger from the rest voltage's SOC. Smooth tables: the fit pays for
    the curvature of each table over SOC.
 3. The lumped thermal mass and its transfer to ambient from the 2C warming.
+4. The charge's end (issue 40): SOC 1 is the state the CC-CV charge reaches at its
+   termination current (the measured charges end at 50 mA, the state the C/20
+   capacity was measured from), with no step to 100 %. The top of the OCV
+   branches (SOC 0.9-1) and a common scale of the charging resistances are
+   fitted so that the model's own charges end at SOC 1 there, with the charges'
+   CC voltage and CV current and the discharges' voltage (fit_charge_end).
 
 Hold-outs: the fit is repeated without the 2C discharge, and without the 0.5C
 one, and each scored on the test it never saw.
@@ -299,6 +307,75 @@ def rounded(params):
                    r_fast_soc_factor=tuple(round(f, 3) for f in params.r_fast_soc_factor))
 
 
+#: the OCV points (both branches) that fit_charge_end moves, and the scales of the three charging
+#: resistances it tries (each with its own fit of the top; the one whose phases are nearest wins)
+TOP_SOC = (0.9, 0.925, 0.95, 0.975, 0.99, 1.0)
+CHARGE_RESISTANCE_SCALES = (0.96, 0.98, 1.0)
+END_SOC_WEIGHT = 30.0      # a charge ending 0.1 % short of SOC 1 weighs as 30 mV
+PHASE_WEIGHT = 0.2         # a CC or CV phase 1 % long weighs as 2 mV
+TOP_STEP_V = 0.01          # the fitted vector's unit for the OCV moves
+
+
+def with_top(params, moves_v, scale=1.0, rounded_as_written=False):
+    """``params`` with ``moves_v`` (V) added to both OCV branches at TOP_SOC and the charging resistances'
+    factors times ``scale``."""
+    digits = (lambda v, n: round(v, n)) if rounded_as_written else (lambda v, n: v)
+    discharge, charge = list(params.ocv_voltage_v), list(params.ocv_charge_voltage_v)
+    for soc, move in zip(TOP_SOC, moves_v):
+        k = params.ocv_soc.index(soc)
+        discharge[k] += move
+        charge[k] += move
+    return replace(params, ocv_voltage_v=tuple(digits(v, 4) for v in discharge),
+                   ocv_charge_voltage_v=tuple(digits(v, 4) for v in charge),
+                   r0_charge_factor=digits(params.r0_charge_factor * scale, 3),
+                   r1_charge_factor=digits(params.r1_charge_factor * scale, 3),
+                   r_fast_charge_factor=digits(params.r_fast_charge_factor * scale, 3))
+
+
+def charge_end(params, rest, run, dt_s=5.0):
+    """(SOC at Full, CC seconds, CV seconds) of the model's own charge against a measured one."""
+    from battery_simulator.core.battery_model import Mode, Status
+    from battery_simulator.core.measured_data import OcvCurve
+    from battery_simulator.core.pack import make_model
+    test = replace(params, ambient_temperature_c=rest.temperature_c, charge_current_a=run[0].current_a,
+                   termination_current_a=run[-1].current_a)
+    model = make_model(test, OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v), mode=Mode.CHARGE)
+    elapsed, cc_s = 0.0, None
+    while model.status is not Status.FULL and elapsed < 86400.0:
+        model.step(dt_s)
+        elapsed += dt_s
+        if cc_s is None and model.current_a < 0.999 * test.charge_current_a:
+            cc_s = elapsed - dt_s / 2.0
+    return model.state_of_charge, cc_s, elapsed - dt_s / 2.0 - cc_s
+
+
+def fit_charge_end(params, data, scales=CHARGE_RESISTANCE_SCALES, max_evaluations=60):
+    """Step 4: the top of the OCV branches and the charging resistances' scale such that the model's
+    charges end at SOC 1 at the termination current, the measured curves still followed."""
+    best = None
+    for scale in scales:
+        def residuals(vector):
+            candidate = with_top(params, (vector - 1.0) * TOP_STEP_V, scale)
+            parts = [discharge_residuals(candidate, data.discharges[name]) for name in DISCHARGES]
+            for (rest, run), (measured_cc, measured_cv) in zip(data.charges, data.charge_phases):
+                parts.append(charge_residuals(candidate, rest, run))
+                soc, cc_s, cv_s = charge_end(candidate, rest, run)
+                parts.append([END_SOC_WEIGHT * (1.0 - soc), PHASE_WEIGHT * (cc_s / measured_cc - 1.0),
+                              PHASE_WEIGHT * (cv_s / measured_cv - 1.0)])
+            moves = numpy.concatenate([[0.0], (vector - 1.0) * TOP_STEP_V])
+            parts.append(SMOOTHNESS_WEIGHT_V * numpy.diff(moves, 2) / 0.01)
+            return numpy.concatenate([numpy.asarray(part, float) for part in parts])
+        start = numpy.array([0.9, 0.85, 0.7, 0.4, -0.1, -0.4])   # about where the HG2 lands
+        result = least_squares(residuals, start, diff_step=1e-3, bounds=(-4.0, 3.0), max_nfev=max_evaluations)
+        candidate = with_top(params, (result.x - 1.0) * TOP_STEP_V, scale, rounded_as_written=True)
+        _, phases = scores(candidate, data)
+        worst = max(max(abs(cc_s / cc - 1.0), abs(cv_s / cv - 1.0)) for cc_s, cv_s, cc, cv, _ in phases)
+        print('  charging resistances x %.2f: phases within %.1f %%' % (scale, 100.0 * worst))
+        if best is None or worst < best[0]:
+            best = (worst, candidate)
+    return best[1]
+
+
 def fitted_cell(data, discharges=('0.5C', '2C'), use_charges=True, max_evaluations=400):
     """The full fit: circuit and thermal alternated (Arrhenius ties them)."""
     params = BatteryParameters(name='lg_hg2_cell', cell_capacity_ah=round(data.capacity_ah, 3),
@@ -311,7 +388,7 @@ def fitted_cell(data, discharges=('0.5C', '2C'), use_charges=True, max_evaluatio
     for _ in range(2):
         params, vector = fit_circuit(params, data, discharges, use_charges, vector, max_evaluations)
         params, thermal_rmse = fit_thermal(params, data)
-    return rounded(params), thermal_rmse
+    return fit_charge_end(rounded(params), data), thermal_rmse
 
 
 def main():
@@ -321,8 +398,27 @@ def main():
                         'tests into PNG and exit')
     parser.add_argument('--no-hold-out', action='store_true', help='fit on everything only')
     parser.add_argument('--evaluations', type=int, default=400, help='most model evaluations per fit')
+    parser.add_argument('--charge-end', action='store_true', help='refit only the charge\'s end (step 4) of the '
+                        'shipped preset')
     args = parser.parse_args()
     data = Measurements()
+    if args.charge_end:
+        shipped = preset('lg_hg2_cell')
+        print_table('The shipped preset', shipped, data)
+        params = fit_charge_end(shipped, data)
+        print_table('Its charge\'s end refitted (SOC 1 at the termination current)', params, data)
+        if not args.no_hold_out:
+            charges, phases = data.charges, data.charge_phases
+            for kept in ((0, 1), (2, 3)):
+                data.charges, data.charge_phases = [charges[k] for k in kept], [phases[k] for k in kept]
+                held = fit_charge_end(shipped, data, scales=(0.98,))
+                data.charges, data.charge_phases = charges, phases
+                print_table('Hold-out: the charge\'s end fitted on charges %d and %d only' % tuple(k + 1 for k in kept),
+                            held, data)
+        if args.write:
+            PRESET.write_text(preset_yaml(params), encoding='utf-8')
+            print('wrote %s' % PRESET)
+        return
     if args.plot:
         plot_against_measurements(preset('lg_hg2_cell'), data, args.plot)
         print('wrote %s' % args.plot)
@@ -462,6 +558,8 @@ PRESET_TEMPLATE = '''\
 # branch, at or above the other). Resistances (by SOC and direction), the fast and
 # the slow RC pair and the hysteresis: fitted to the 0.5C and 2C discharges and
 # the 3 A CC-CV charges. Thermal: fitted to the 2C warming (cell in the test rig).
+# The charge's end: the OCV top (SOC 0.9-1) and the charging factors refitted so that
+# the charges end at SOC 1 at 50 mA, the measured end (fit_lg_hg2.py --charge-end).
 name: lg_hg2_cell
 source: LG HG2 cell tests, Kollmeyer et al. 2020, doi:10.17632/cp3473x7xv.3 (CC BY 4.0)
 cells_series: 1
@@ -487,7 +585,7 @@ coulombic_efficiency: 0.999
 cell_charge_voltage_v: 4.2
 cell_cutoff_voltage_v: 2.8
 charge_current_a: 1.5           # 0.5C (the datasheet's standard charge)
-termination_current_a: null     # C/20
+termination_current_a: 0.05     # the measured charges' end (and the capacity's start): SOC 1
 load_current_a: 1.5             # 0.5C
 cell_heat_capacity_j_per_k: %(heat_capacity).0f
 cell_heat_transfer_w_per_k: %(transfer).2f

@@ -1,6 +1,6 @@
 """SIGINT and SIGTERM for the package's ROS 1 nodes: each ends within 2 s at any moment, quietly.
 
-Installed when a node's subpackage is imported (battery/, robot/, web/), so a
+Installed when a node's subpackage is imported (ros1/, ros2/, web/), so a
 signal is not lost while the node still imports rospy (a process started in
 the background by a shell begins with SIGINT ignored), and the nodes call
 rospy.init_node(..., disable_signals=True) so that rospy keeps these handlers.

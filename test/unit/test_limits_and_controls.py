@@ -92,7 +92,7 @@ def test_rc_update_is_exact_for_a_short_time_constant_and_a_long_step():
 
 
 def test_c20_termination_is_per_pack_for_a_parallel_pack():
-    params = replace(CELL, cells_series=2, cells_parallel=3, charge_current_a=4.5)
+    params = replace(CELL, cells_series=2, cells_parallel=3, charge_current_a=4.5, termination_current_a=None)
     assert params.pack_termination_current_a == pytest.approx(3 * CELL.cell_capacity_ah / 20)
     model = BatteryModel(params, state_of_charge=0.95, mode=Mode.CHARGE)
     currents = []

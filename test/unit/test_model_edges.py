@@ -194,17 +194,20 @@ def test_cv_steps_end_exactly_at_the_charge_voltage():
     assert cv_steps > 10 and model.status is Status.FULL
 
 
-def test_end_of_taper_keeps_the_terminal_voltage_continuous():
+def test_end_of_taper_moves_no_charge_and_no_voltage_but_its_current_s():
+    """Issue 40: the end of the taper no longer steps the SOC to 1 (charge appeared there: 1.1 % a cycle).
+    The step that ends it carries no current: the SOC stays, the RC pair relaxes, and the terminal voltage
+    is the OCV plus the RC voltage (the current's R0 drop gone)."""
     model = BatteryModel(PLAIN, state_of_charge=0.99, mode=Mode.CHARGE)
     while True:
-        before = (model.state_of_charge, model.rc_voltage_v)
+        before = (model.state_of_charge, model.rc_voltage_v, model.throughput_as)
         model.step(1.0)
         if model.status is Status.FULL:
             break
-    soc, rc_voltage = before
-    decay = math.exp(-1.0 / PLAIN.tau1_s)
-    assert model.rc_voltage_v == pytest.approx(decay * (rc_voltage + model.ocv.voltage(soc) - 4.2), abs=1e-12)
-    assert model.cell_voltage_v == pytest.approx(4.2 + model.rc_voltage_v, abs=1e-12)
+    soc, rc_voltage, throughput = before
+    assert model.state_of_charge == soc and model.throughput_as == throughput
+    assert model.rc_voltage_v == pytest.approx(math.exp(-1.0 / PLAIN.tau1_s) * rc_voltage, abs=1e-12)
+    assert model.cell_voltage_v == pytest.approx(model.ocv.voltage(soc) + model.rc_voltage_v, abs=1e-12)
 
 
 def test_a_small_current_below_the_termination_still_charges_in_cc():

@@ -153,8 +153,8 @@ OCV = {'ocv_soc': (0.0, 0.5, 1.0), 'ocv_voltage_v': (2.8, 3.6, 4.2)}
     ({'ocv_soc': (0.0, 0.0, 1.0)}, 'ocv_soc', 'strictly increasing from 0 to 1'),
     ({'ocv_voltage_v': (0.0, 3.6, 4.2)}, 'ocv_voltage_v', 'positive and strictly increasing'),
     ({'ocv_voltage_v': (2.8, 2.8, 4.2)}, 'ocv_voltage_v', 'positive and strictly increasing'),
-    ({'cell_charge_voltage_v': 4.3}, 'cell_charge_voltage_v', 'within the OCV table (2.8..4.2 V)'),
-    ({'cell_charge_voltage_v': 2.8}, 'cell_charge_voltage_v', 'within the OCV table (2.8..4.2 V)'),
+    ({'cell_charge_voltage_v': 4.3}, 'cell_charge_voltage_v', 'above the OCV table\'s start and at most 0.05 V above its top (2.8..4.25 V)'),
+    ({'cell_charge_voltage_v': 2.8}, 'cell_charge_voltage_v', 'above the OCV table\'s start and at most 0.05 V above its top (2.8..4.25 V)'),
     ({'cell_cutoff_voltage_v': 2.7}, 'cell_cutoff_voltage_v', 'at or above the OCV table start (2.8 V)'),
 ])
 def test_ocv_table_rules(changes, name, allowed):

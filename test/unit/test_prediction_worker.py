@@ -1,4 +1,4 @@
-"""The prediction workers (battery/prediction_worker.py): answers, bounds, fairness, crashes and ends.
+"""The prediction workers (core/prediction_worker.py): answers, bounds, fairness, crashes and ends.
 
 Every worker process here is started by a pool of the test (or by a parent
 process the test starts) and ended by its pool or by its pid; each test

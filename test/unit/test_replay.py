@@ -199,7 +199,8 @@ def test_list_presets_needs_no_profile():
 
 @pytest.mark.parametrize('soc, first_row', [
     ('0', ['0', '2.8000', '0.0000', '0.00000', '25.00', 'NOT_CHARGING', '2.8000', '2.8000', '0.00000', '2.7810', '']),
-    ('1', ['0', '4.2000', '0.0000', '1.00000', '25.00', 'NOT_CHARGING', '4.2000', '4.2000', '1.00000', '2.7810', '']),
+    # SOC 1 is where the charge ends at 50 mA (issue 40): its OCV, 4.1857 V, not the charge voltage
+    ('1', ['0', '4.1857', '0.0000', '1.00000', '25.00', 'NOT_CHARGING', '4.1857', '4.1857', '1.00000', '2.7810', '']),
 ])
 def test_soc_bounds_are_allowed_and_the_pack_starts_at_rest(tmp_path, soc, first_row):
     config = tmp_path / 'cell.yaml'

@@ -11,13 +11,14 @@ from battery_simulator.core.parameters import preset
 
 DATA = Path(__file__).resolve().parents[1] / 'data' / 'lg_hg2'
 CELL = preset('lg_hg2_cell')
-#: acceptance limits: the fitted preset's figures (tools/fit_lg_hg2.py: 4.6 mV, 5.2 mV, time to
-#: full +0.1 to +1.5 %, CC -1.2 to 0.0 %, CV +0.4 to +2.8 %) with a little margin
-HALF_C_MV = 6.0
-TWO_C_MV = 7.0
+#: acceptance limits. Issue 40 refitted the charge's end (SOC 1 at the 50 mA end of charge, no step to
+#: 100 %): the discharges within the RMSE before it + 1 mV (4.6 and 5.2 mV then; 4.4 and 5.5 mV now),
+#: the CC and CV phases within 3 % (tools/fit_lg_hg2.py: CC -1.0 to +0.2 %, CV -1.5 to +0.9 %)
+HALF_C_MV = 4.6 + 1.0
+TWO_C_MV = 5.2 + 1.0
 TOTAL_PERCENT = 2.5
-CC_PERCENT = 2.0
-CV_PERCENT = 3.5
+CC_PERCENT = 3.0
+CV_PERCENT = 3.0
 
 
 def measured_discharge_rmse(name, excluded_end_soc):

@@ -10,7 +10,7 @@ replies and their inputs into its calls (as smach_ros wraps smach).
 
 Time and logging come from outside: ``clock()`` returns the front end's
 time (monotonic wall seconds, or ROS time under sim time) and ``log`` has
-info/warn/error and their ``*_throttle`` forms (battery/robot_log.py for
+info/warn/error and their ``*_throttle`` forms (ros1/log.py for
 rospy, ros2/ for rclpy).
 
 Lock: ``self.lock`` (a Condition on an RLock) guards the model and all of

@@ -4,7 +4,7 @@ per robot and message.
 rospy's and rclpy's throttles key on the line of code, so in a fleet host one
 robot's line would silence every other robot's; this keys on the robot (the
 object) and the message. The front ends give the functions that write a line
-(battery/robot_log.py for rospy, ros2/node_log.py for rclpy).
+(ros1/log.py for rospy, ros2/log.py for rclpy).
 """
 import time
 

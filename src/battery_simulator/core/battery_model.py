@@ -509,6 +509,8 @@ class BatteryModel:
             self.state_of_health = max(MIN_STATE_OF_HEALTH, self.state_of_health
                                        - p.capacity_fade_per_cycle * discharged_ah / p.cell_capacity_ah)
             self._update_capacity()
+        if current > 0.0 and soc > 1.0 - 1e-12:
+            soc = 1.0   # the step that fills the cell (its current was cut to fill it exactly), to rounding
         self.state_of_charge = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
 
         # Lumped thermal mass, exact for the heat held over the step; the RC
@@ -529,8 +531,8 @@ class BatteryModel:
         settled_c = p.ambient_temperature_c + heat_w / conductance
         self.temperature_c = settled_c + (self.temperature_c - settled_c) * thermal_decay
 
-        if self.status is Status.CHARGING and self.state_of_charge >= 1.0:
-            self._become_full()
+        if self.status is Status.CHARGING and self.state_of_charge >= 1.0 and limit_a is None:
+            self._become_full()   # (a group in a string: the pack decides)
 
     def _mode_demand_a(self):
         if self.mode is Mode.CHARGE:
@@ -596,7 +598,11 @@ class BatteryModel:
             self._become_full()
             return 0.0
         self.status = Status.CHARGING
-        return current
+        room = (1.0 - soc) / soc_gain if dt_s > 0.0 else math.inf
+        # No more than fills the cell: a step that reaches SOC 1 ends there exactly (charge is conserved)
+        # and the charge ends with it. The OCV table's top is fitted so that this and the taper's end
+        # coincide (docs/model.md): SOC 1 is the state the charge reaches at its termination current.
+        return current if current < room else room
 
     def _discharge_current(self, cell_demand):
         if self.status is Status.EMPTY:
@@ -635,13 +641,10 @@ class BatteryModel:
         self.status = status
         self.cell_current_a = 0.0
 
-    def _become_full(self, state_of_charge=1.0):
-        # A fuel gauge calls the end of the CV taper 100 % (a pack of groups moves its other groups by the
-        # same charge: ``state_of_charge``). The terminal voltage stays continuous: the slow RC pair
-        # takes up the OCV step.
-        ocv_before = self.open_circuit_voltage_v
-        self.state_of_charge = state_of_charge
-        self.rc_voltage_v += ocv_before - self.open_circuit_voltage_v
+    def _become_full(self):
+        # The charge has ended: at the termination current, or as the cell is filled (SOC 1). The state of
+        # charge stays where the charge put it (no step: charge is conserved); the OCV table is fitted so
+        # that the two ends coincide (tools/fit_lg_hg2.py, docs/model.md).
         self.status = Status.FULL
         self.cell_current_a = 0.0
 

@@ -160,7 +160,7 @@ def simulated_charge(params, rest, run, max_step_s=2.0):
     Returns (CC seconds, CV seconds or None if it never ends, [(voltage V, current A)
     at each sample's time])."""
     test = replace(params, ambient_temperature_c=rest.temperature_c, charge_current_a=run[0].current_a,
-                   termination_current_a=run[-1].current_a)
+                   termination_current_a=run[-1].current_a, charger_holds_full=False)   # a cycler stops at its end
     start_soc = OcvCurve(test.ocv_soc, test.ocv_voltage_v).soc(rest.voltage_v)
     model = make_model(test, state_of_charge=start_soc, mode=Mode.CHARGE)
     cc_current = test.charge_current_a

@@ -24,11 +24,10 @@ can give plus what it can still take,
 when the groups are alike).
 
 The charge ends as the lumped model's does: when the string's current tapers to
-the termination current, the limiting group is called full (the lumped model's
-step to 100 % at the taper's end), and every other group moves by the same
-charge, as the string carries one current: the groups keep their differences,
-so a pack of alike groups cycles exactly as the lumped one, and no group gains
-charge the others did not.
+the termination current, or as it fills a group (that group's SOC reaches 1: no
+group takes more than fills it). No group's charge moves but by the current it
+carried (no step to 100 %), so charge is conserved, the groups keep their
+differences, and a pack of alike groups cycles exactly as the lumped one.
 
 ``make_model(params, ...)`` builds the model of a config: this pack when the
 config has a spread, groups or balancing, else the lumped BatteryModel.
@@ -205,6 +204,8 @@ class GroupedPack(BatteryModel):
         self.cell_current_a = current / p.cells_parallel
         if current > 0.0:
             self.status = Status.CHARGING
+            if any(g.state_of_charge >= 1.0 for g in groups):   # the step filled a group: the charge ends
+                self._end_charge()
 
     def _charge_groups(self, dt_s, demand):
         """Charge every group over ``dt_s`` at the current the most limiting group's CC-CV allows (the
@@ -231,9 +232,9 @@ class GroupedPack(BatteryModel):
             return demand if self._charge_at(dt_s, demand, demand, {}) else self._charge_tried(dt_s, demand)
         first = voltages.index(highest)
         tried = {first: self._try(first, dt_s, demand)}
-        current = tried[first][0]
-        if current < demand and current <= p.pack_termination_current_a:
-            self._end_charge(groups[first])
+        current, _, tapered = tried[first]
+        if tapered:
+            self._end_charge()
             return 0.0
         if current > 0.0 and self._charge_at(dt_s, demand, current, tried):
             return current
@@ -241,25 +242,24 @@ class GroupedPack(BatteryModel):
 
     def _try(self, index, dt_s, demand):
         """(the pack current group ``index``'s CC-CV allows over ``dt_s`` at ``demand``, its state after
-        that step); the group is left as it was."""
+        that step, whether its taper has ended there: at the termination current); the group is left as
+        it was. A group that the step fills (SOC 1) allows what fills it."""
         group = self.groups[index]
         saved = group._state()
         group.status = Status.CHARGING
-        group._advance(dt_s, demand)
-        allowed = group.cell_current_a * self.params.cells_parallel if group.status is Status.CHARGING else 0.0
-        tried = (allowed, group._state())
+        group._advance(dt_s, demand, math.inf)   # (a group filled in this step stays CHARGING: the pack decides)
+        charging = group.status is Status.CHARGING
+        tried = (group.cell_current_a * self.params.cells_parallel if charging else 0.0, group._state(),
+                 group.status is Status.FULL)
         group._restore(saved)
         return tried
 
     def _charge_tried(self, dt_s, demand):
         """Every group tried at ``demand``: the least current wins (0 and FULL at the taper's end)."""
         tried = {index: self._try(index, dt_s, demand) for index in range(len(self.groups))}
-        allowed = [tried[index][0] for index in range(len(self.groups))]
-        current = min(allowed)
-        if current < demand and current <= self.params.pack_termination_current_a:
-            self._end_charge(self.groups[allowed.index(current)])
-            return 0.0
-        if current <= 0.0:
+        current = min(tried[index][0] for index in range(len(self.groups)))
+        if current <= 0.0 or any(ended for _, _, ended in tried.values()):
+            self._end_charge()   # a group's taper has ended (or a group is full): the string takes no more
             return 0.0
         self._charge_at(dt_s, demand, current, tried, check=False)
         return current
@@ -294,21 +294,16 @@ class GroupedPack(BatteryModel):
             self.bleeding = [False] * len(groups)
         return True
 
-    def _end_charge(self, limiting):
-        """The taper has ended at ``limiting``: it is full (the lumped model's step to 100 % at the taper's
-        end), and that step's charge goes through every other group too (one string, one current), so
-        the groups keep their differences and no charge appears in one group alone."""
-        top_up_as = (1.0 - limiting.state_of_charge) * limiting._capacity_as   # per cell
+    def _end_charge(self):
+        """The charge has ended (the taper at the termination current, or a group filled): FULL, no current in
+        any group; every group's charge stays where the string's current put it."""
         for group in self.groups:
-            soc = group.state_of_charge + top_up_as / group._capacity_as
-            group._become_full(1.0 if group is limiting or soc > 1.0 - 1e-12 else soc)
-        self.status = Status.FULL
+            group._become_full()
+        self._become_full()
 
     def _bleeds(self, current):
-        """The bleed current of each group now (passive balancing while charging), A."""
+        """The bleed current of each group in a charging step at the string's ``current`` (> 0), A."""
         balancing = self.params.balancing
-        if not balancing or current <= 0.0:
-            return [0.0] * len(self.groups)
         voltages = self._voltages   # as the step began (_charge_groups)
         if max(voltages) < balancing['start_voltage_v']:
             return [0.0] * len(self.groups)
@@ -323,7 +318,7 @@ class GroupedPack(BatteryModel):
         group.temperature_c += rise * (1.0 - math.exp(-dt_s * p.cell_heat_transfer_w_per_k
                                                       / p.cell_heat_capacity_j_per_k))
 
-    def _become_full(self, state_of_charge=1.0):   # only the groups end a charge (_end_charge)
+    def _become_full(self):
         self.status = Status.FULL
         self.cell_current_a = 0.0
 

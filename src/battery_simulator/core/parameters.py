@@ -94,7 +94,7 @@ class BatteryParameters:
     hysteresis_ah: float = 0.1
     #: fraction of the charge put in that is stored, 0 < eta <= 1
     coulombic_efficiency: float = 0.999
-    #: constant-voltage limit per cell, V (must lie within the OCV table)
+    #: constant-voltage limit per cell, V (above the OCV table's start, at most 0.05 V above its top)
     cell_charge_voltage_v: float = 4.2
     #: discharge cut-off per cell, V (the load is disconnected there)
     cell_cutoff_voltage_v: float = 2.8
@@ -484,6 +484,11 @@ def load_power_error(params, field, power_w, total_w, others):
     return None
 
 
+#: the charge voltage may lie this far above the OCV at SOC 1 (the full state's OCV, the charge's end less the
+#: drop at the termination current), V
+CHARGE_VOLTAGE_ABOVE_FULL_V = 0.05
+
+
 def _validate_ocv_table(params):
     soc, volts = params.ocv_soc, params.ocv_voltage_v
     for name, table in (('ocv_soc', soc), ('ocv_voltage_v', volts)):
@@ -496,10 +501,12 @@ def _validate_ocv_table(params):
         _fail('ocv_soc', soc, 'strictly increasing from 0 to 1')
     if volts[0] <= 0 or any(b <= a for a, b in zip(volts, volts[1:])):
         _fail('ocv_voltage_v', volts, 'positive and strictly increasing')
-    # The CV taper only ends if the OCV can reach the charge voltage.
-    if not volts[0] < params.cell_charge_voltage_v <= volts[-1]:
+    # SOC 1 is the state the CC-CV charge ends in (at the termination current): its OCV lies below the
+    # charge voltage by the drop at that current, and the charge ends there at the latest.
+    if not volts[0] < params.cell_charge_voltage_v <= volts[-1] + CHARGE_VOLTAGE_ABOVE_FULL_V:
         _fail('cell_charge_voltage_v', params.cell_charge_voltage_v,
-              'within the OCV table (%g..%g V)' % (volts[0], volts[-1]))
+              'above the OCV table\'s start and at most %g V above its top (%g..%g V)'
+              % (CHARGE_VOLTAGE_ABOVE_FULL_V, volts[0], volts[-1] + CHARGE_VOLTAGE_ABOVE_FULL_V))
     if not volts[0] <= params.cell_cutoff_voltage_v:
         _fail('cell_cutoff_voltage_v', params.cell_cutoff_voltage_v,
               'at or above the OCV table start (%g V)' % volts[0])

@@ -1,0 +1,89 @@
+"""The coulomb counter's rules one by one (core/gauge.py), by hand arithmetic (issue 40, item 16). No ROS.
+
+Each test pins one rule the mutation run (tools/mutation.sh gauge) found unpinned: the recalibration
+switches, the deadband's edges, the clamps to 0 and 1, a zero-length step, and add_error's range and text.
+"""
+import pytest
+
+from battery_simulator.core.gauge import CoulombCounter
+
+CAPACITY_AH = 2.5   # believed capacity 9000 A*s: numbers that stay exact
+
+
+def counter(soc=0.5, **config):
+    return CoulombCounter(config, CAPACITY_AH, soc)
+
+
+def test_recalibrate_at_full_false_counts_past_99_percent_and_does_not_snap_at_full():
+    gauge = counter(0.98, recalibrate_at_full=False)
+    gauge.count(900.0, 100.0)   # +0.1 of 9000 A*s: 0.98 -> 1.0 (clamped), no hold at 0.99
+    assert gauge.soc == 1.0
+    gauge = counter(0.5, recalibrate_at_full=False)
+    gauge.on_full()
+    assert gauge.soc == 0.5
+    held = counter(0.98)
+    held.count(900.0, 100.0)
+    assert held.soc == 0.99, 'a gauge that recalibrates at full holds at 99 % until the charge ends'
+    held.on_full()
+    assert held.soc == 1.0
+
+
+def test_recalibrate_at_empty_false_does_not_snap_at_the_cut_off():
+    gauge = counter(0.07, recalibrate_at_empty=False)
+    gauge.on_empty()
+    assert gauge.soc == 0.07
+    gauge = counter(0.07)
+    gauge.on_empty()
+    assert gauge.soc == 0.0
+
+
+def test_the_deadband_is_inclusive_at_both_edges():
+    """deadband 0.5 A over 2 s: a measured 1.0 A*s either way counts as nothing; 1.0 + 9 A*s counts."""
+    gauge = counter(0.5, deadband_a=0.5)
+    gauge.count(1.0, 2.0)
+    gauge.count(-1.0, 2.0)
+    assert gauge.soc == 0.5
+    gauge.count(9.0, 2.0)
+    assert gauge.soc == pytest.approx(0.5 + 9.0 / 9000.0, abs=1e-15)
+
+
+def test_a_zero_length_step_counts_nothing_and_half_a_second_counts():
+    gauge = counter(0.5)
+    gauge.count(90.0, 0.0)
+    assert gauge.soc == 0.5
+    gauge.count(90.0, 0.5)
+    assert gauge.soc == pytest.approx(0.51, abs=1e-15)
+
+
+def test_the_count_is_clamped_to_0_and_1():
+    gauge = counter(0.01)
+    gauge.count(-900.0, 100.0)   # -0.1 from 0.01
+    assert gauge.soc == 0.0
+    gauge = counter(0.95, recalibrate_at_full=False)
+    gauge.count(900.0, 100.0)    # +0.1 from 0.95
+    assert gauge.soc == 1.0
+
+
+def test_add_error_allows_exactly_0_and_100_and_names_where_it_would_put_the_gauge():
+    gauge = counter(0.5)
+    gauge.add_error(-50.0)
+    assert gauge.soc == 0.0
+    gauge = counter(0.5)
+    gauge.add_error(50.0)
+    assert gauge.soc == 1.0
+    gauge = counter(0.5)
+    with pytest.raises(ValueError) as refused:
+        gauge.add_error(120.0)   # 1.7
+    assert str(refused.value) == ('gauge_error = 120.0 is invalid: it puts the gauge at 170.0 % (now 50.0 %): '
+                                  'the percentage must stay in [0, 100]')
+    with pytest.raises(ValueError) as refused:
+        gauge.add_error(-60.0)   # -0.1
+    assert str(refused.value) == ('gauge_error = -60.0 is invalid: it puts the gauge at -10.0 % (now 50.0 %): '
+                                  'the percentage must stay in [0, 100]')
+    assert gauge.soc == 0.5, 'refused: nothing changed'
+
+
+def test_an_explicit_ideal_gauge_is_none_a_counter_otherwise():
+    from battery_simulator.core.gauge import make_gauge
+    assert make_gauge({'model': 'ideal'}, 2.5, 0.5) is None and make_gauge(None, 2.5, 0.5) is None
+    assert isinstance(make_gauge({'model': 'coulomb_counter'}, 2.5, 0.5), CoulombCounter)
