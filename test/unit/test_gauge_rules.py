@@ -84,6 +84,6 @@ def test_add_error_allows_exactly_0_and_100_and_names_where_it_would_put_the_gau
 
 
 def test_an_explicit_ideal_gauge_is_none_a_counter_otherwise():
-    from battery_simulator.core.gauge import make_gauge
+    from battery_simulator.core.gauge_models import make_gauge
     assert make_gauge({'model': 'ideal'}, 2.5, 0.5) is None and make_gauge(None, 2.5, 0.5) is None
     assert isinstance(make_gauge({'model': 'coulomb_counter'}, 2.5, 0.5), CoulombCounter)

@@ -37,7 +37,9 @@ def test_every_parameter_has_a_unit_or_is_a_count_or_text():
                 # Part 5: relative spreads, a seed, and mappings whose keys carry their units
                 'capacity_spread', 'resistance_spread', 'spread_seed', 'groups', 'balancing', 'gauge',
                 # Part 7: a switch, and a mapping of a sign and a scale
-                'charger_holds_full', 'conventions'}
+                'charger_holds_full', 'conventions',
+                # Part 8: a name (li-ion or lfp)
+                'chemistry'}
     for name in PARAMETER_NAMES:
         assert name in unitless or name.endswith(units), name
 

@@ -227,8 +227,9 @@ class LearningGauge(CoulombCounter):
             return
         if current > 0.0:
             in_taper = self.taper_current_min_a <= current < self.taper_current_a
-        else:   # the charger stopped: inside the taper only if it had got there (it terminated)
-            in_taper = self._taper_s > 0.0 and self.taper_current_min_a == 0.0
+        else:   # the charger stopped: inside the taper only if it had got there (it terminated in the band:
+            # ModelGauge's lower bound, 0.125 x IChgTerm, is for a charge current, not the charger's end)
+            in_taper = self._taper_s > 0.0
         self._taper_s = self._taper_s + dt_s if in_taper else 0.0
         if self._taper_s >= self.settings['taper_windows'] * self.settings['taper_window_s'] \
                 and self.soc >= self.settings['end_of_charge_min_soc']:

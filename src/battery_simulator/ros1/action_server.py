@@ -264,12 +264,8 @@ class BatterySimServer:
     # -- goals (worker thread) ---------------------------------------------------
 
     def _take_goals(self):
-        """Accept a new goal (preempting the active one) or act on a cancel.
-
-        The preempt flag is read before the new-goal flag: actionlib's goal callback sets ``new_goal``
-        first and ``preempt_request`` second, so a preempt seen here that a new goal caused is always
-        seen with its new goal (read the other way round, a goal arriving between the two reads was
-        taken for a cancel)."""
+        """Accept a new goal (preempting the active one) or act on a cancel. The preempt flag is read first:
+        actionlib sets ``new_goal`` before ``preempt_request``, so a new goal's preempt is never a cancel."""
         preempt_requested = self._server.is_preempt_requested()
         if self._server.is_new_goal_available():
             self._preempt('a new goal')
