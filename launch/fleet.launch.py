@@ -1,6 +1,7 @@
 """ROS 2: N simulated batteries robot0 ... robot<N-1> (fleet.launch's ROS 2 twin), hosted by ``hosts``
 battery_fleet processes that split them evenly (host k: its own first robot and count; host 0 is
-/battery_fleet, host k > 0 /battery_fleet_k/battery_fleet). Levels are staggered: 100 %, 95 %, ... wrapping
+/battery_fleet, host k > 0 /battery_fleet_k, as fleet.launch names them; every robot is /robotN whatever the
+split). Levels are staggered: 100 %, 95 %, ... wrapping
 at 20 %. With ``speed`` every host runs on sim_clock.
 
     ros2 launch battery_simulator fleet.launch.py n:=100 [hosts:=2] [speed:=60] [dashboard:=true]
@@ -54,7 +55,7 @@ def _actions(context):
             parameters['config'] = values['config']
         # respawn: a crashed host comes back (with state_file, every robot resumes)
         actions.append(Node(package='battery_simulator', executable='battery_fleet', output='screen',
-                            namespace='' if host == 0 else 'battery_fleet_%d' % host, respawn=True,
+                            name='battery_fleet' if host == 0 else 'battery_fleet_%d' % host, respawn=True,
                             respawn_delay=1.0, parameters=[parameters]))
     return actions
 

@@ -117,8 +117,8 @@ def ros_args(node, params_dir):
     args = []
     if kwargs.get('name'):
         args += ['-r', '__node:=%s' % kwargs['name']]
-    if kwargs.get('namespace'):
-        args += ['-r', '__ns:=/%s' % kwargs['namespace'].strip('/')]
+    # launch_ros passes the namespace to every node, '/' when the launch file gives none
+    args += ['-r', '__ns:=/%s' % (kwargs.get('namespace') or '').strip('/')]
     for source, target in kwargs.get('remappings', ()):
         args += ['-r', '%s:=%s' % (source, target)]
     for index, parameters in enumerate(kwargs.get('parameters', ())):

@@ -22,6 +22,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
@@ -36,6 +37,20 @@ EXIT_BAD_PARAMETER = 2
 FINISH_S = 1.5
 #: ... and this long after they have gone, so that DDS delivers them before the process ends
 LINGER_S = 0.3
+
+
+def own_node(name, namespace, **options):
+    """A Node ``name`` in ``namespace`` whatever the process's global remaps. ``ros2 launch`` gives every node
+    it starts ``-r __node:=NAME -r __ns:=NS``, and a global remap applies to every node of a process: a
+    fleet's robots (or battery_sim's battery_state_pub) would all take the host's name and namespace. Remaps of
+    the node's own (``cli_args``) come before the global ones; parameter overrides still apply."""
+    return Node(name, namespace=namespace, cli_args=['--ros-args', '-r', '__node:=' + name, '-r', '__ns:=' + namespace],
+                **options)
+
+
+def child_namespace(parent, name):
+    """The namespace ``name`` under ``parent``: ('/', 'robot1') -> '/robot1'; ('/site', 'robot1') -> '/site/robot1'."""
+    return parent.rstrip('/') + '/' + name.strip('/')
 
 
 def steady_clock():
