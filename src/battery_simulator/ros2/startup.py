@@ -30,6 +30,7 @@ from std_msgs.msg import String
 
 from battery_simulator.core.parameters import number_from_text
 from battery_simulator.core.settings import SettingError, check_setting
+from battery_simulator.ros2 import local_claims
 from battery_simulator.ros2.rcl_args import rcl_problem
 
 EXIT_BAD_PARAMETER = 2
@@ -275,6 +276,8 @@ CLAIMS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Re
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: how long a process listens for the claims of others before it runs its batteries
 CLAIM_WAIT_S = 1.5
+#: ... and longer, up to this, while the graph shows a claim publisher whose claim has not arrived
+CLAIM_WAIT_MOST_S = 6.0
 
 
 def claimed_by(node, executor, namespace, timeout_s=1.0):
@@ -313,6 +316,15 @@ class BatteryClaim:
         self.order = (time.time_ns(), socket.gethostname(), os.getpid())
         self.lost = None
         self.on_lost = None
+        self.heard = set()   # the orders of the other claims received (live or withdrawn)
+        self._pub = None
+        held = local_claims.register(self.names, what)   # this machine's batteries: decided at once
+        if held is not None:
+            holder, pid, taken = held
+            self.lost = 'robot %s is already served by %s (pid %d, on this machine): exactly one battery per robot ' \
+                        'name%s' % (taken[0].strip('/') or '/', holder, pid,
+                                    '' if len(taken) == 1 else ' (%d of our robots are taken)' % len(taken))
+            return   # no claim published: the earlier battery must not take ours for an earlier one
         self._sub = node.create_subscription(String, CLAIMS_TOPIC, self._on_claim, CLAIMS_QOS)
         self._pub = node.create_publisher(String, CLAIMS_TOPIC, CLAIMS_QOS)
         self._pub.publish(String(data=json.dumps({'order': list(self.order), 'names': self.names,
@@ -324,6 +336,8 @@ class BatteryClaim:
             order, names, node = tuple(claim['order']), set(claim['names']), str(claim['node'])
         except (ValueError, KeyError, TypeError):
             return
+        if order != self.order:
+            self.heard.add(order)
         shared = sorted(names.intersection(self.names))
         if self.lost is not None or not shared or order >= self.order:
             return
@@ -339,13 +353,23 @@ class BatteryClaim:
     def release(self):
         """At the end: the claim withdrawn (no names), so that a process started while DDS still remembers this
         one's (latched) claim does not take it for a live one."""
+        local_claims.unregister()
         with contextlib.suppress(Exception):
             self._pub.publish(String(data=json.dumps({'order': list(self.order), 'names': [], 'node': self.what})))
 
-    def wait(self, executor, wait_s=CLAIM_WAIT_S):
-        """Listen ``wait_s`` for earlier claims; StartupError (the line) when one of our names is taken."""
-        deadline = time.monotonic() + wait_s
-        while time.monotonic() < deadline and self.lost is None:
+    def unheard(self):
+        """How many claim publishers on the graph (other processes') have not delivered their claim yet."""
+        return max(0, self.node.count_publishers(CLAIMS_TOPIC) - 1 - len(self.heard))
+
+    def wait(self, executor, wait_s=CLAIM_WAIT_S, most_s=CLAIM_WAIT_MOST_S):
+        """Listen ``wait_s`` for earlier claims, and on (at most ``most_s`` in all) while a claim publisher the
+        graph shows has not delivered its claim: on a busy machine discovery takes longer than ``wait_s``, and a
+        duplicate must be refused before it says it is ready. StartupError (the line) when a name is taken."""
+        started = time.monotonic()
+        while self.lost is None and self._pub is not None:
+            now = time.monotonic()
+            if now >= started + most_s or (now >= started + wait_s and not self.unheard()):
+                break
             executor.spin_once(timeout_sec=0.05)
         if self.lost is not None:
             raise StartupError(self.lost)
