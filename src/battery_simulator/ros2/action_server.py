@@ -52,10 +52,11 @@ class BatterySimServer:
         self._goals = {}           # goal id -> its _ActiveGoal, until its execute callback takes it
         self._running = 0          # execute callbacks not yet returned (their results not yet sent)
         self._setting_mode = False
+        self._finishing = False   # after finish(): the server is shutting down, new goals are rejected
         ns = namespace
         self._state_pub = node.create_publisher(BatterySimState, ns + topics.STATE_TOPIC, LATCHED_QOS)
         self._action = ActionServer(node, BatterySim, ns + topics.ACTION, execute_callback=self._execute,
-                                    goal_callback=lambda goal: GoalResponse.ACCEPT,
+                                    goal_callback=self._goal_response,
                                     handle_accepted_callback=self._accepted,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT)
         self._cmd_vel_name = ns + topics.CMD_VEL
@@ -130,6 +131,7 @@ class BatterySimServer:
     def finish(self):
         """At shutdown, while the context is up: end the active goal (aborted, "server shutting down") and
         save the state. Returns a function telling whether the goal's result has been sent."""
+        self._finishing = True
         if self._active is not None:
             self._end_goal(self.battery.preempted(SHUTDOWN_TEXT))
         if self._store is not None:
@@ -137,6 +139,14 @@ class BatterySimServer:
         return lambda: self._running == 0
 
     # -- the action ------------------------------------------------------------------------------
+
+    def _goal_response(self, goal):
+        """Every goal is accepted, but once the server is shutting down (its state saved, its last results on
+        their way): one accepted then would never run."""
+        if self._finishing:
+            self._log.warn_throttle(LOG_PERIOD_S, 'goal rejected: %s', SHUTDOWN_TEXT)
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
 
     def _accepted(self, handle):
         """A new goal preempts the active one (SimpleActionServer's rule) and executes at once; the updates
