@@ -42,10 +42,13 @@ class _ActiveGoal:
 class BatterySimServer:
     """One battery's action, services, subscriptions, ``charging`` and live parameters on ``node``."""
 
-    def __init__(self, node, battery, namespace, log, status=None, store=None):
+    def __init__(self, node, battery, namespace, log, status=None, store=None, mode_parameter=True, graph_types=None):
         """``namespace``: '' for the node's own names, 'robot3/' in a fleet host's shared node;
-        ``status``: the BatteryStatePublisher fed at every update; ``store``: a saved-state keeper (maybe_save/save_now)."""
+        ``status``: the BatteryStatePublisher fed at every update; ``store``: a saved-state keeper (maybe_save/save_now);
+        ``mode_parameter``: the node's ``charging`` follows the mode (False on a shared node, whose parameters
+        are the host's); ``graph_types``: a GraphTypes shared by the fronts of one node (velocity.py)."""
         self.node, self.battery, self._log = node, battery, log
+        self._mode_parameter = mode_parameter
         self._status = status
         self._store = store
         self._active = None
@@ -60,7 +63,8 @@ class BatterySimServer:
                                     handle_accepted_callback=self._accepted,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT)
         self._cmd_vel_name = ns + topics.CMD_VEL
-        self._cmd_vel = VelocityInput(node, ns + topics.CMD_VEL, self._on_cmd_vel)   # Twist or TwistStamped
+        self._cmd_vel = VelocityInput(node, ns + topics.CMD_VEL, self._on_cmd_vel,   # Twist or TwistStamped
+                                      graph_types=graph_types)
         node.create_subscription(Bool, ns + topics.CHARGER_CONTACT, self._on_contact, 10)
         self.services = BatteryServices(node, ns, self)
 
@@ -100,6 +104,8 @@ class BatterySimServer:
 
     def _write_mode(self, mode):
         """Write ``charging`` to match a mode the battery took from a goal or the contact."""
+        if not self._mode_parameter:
+            return
         self._setting_mode = True
         try:
             self.node.set_parameters([Parameter(MODE_PARAMETER, Parameter.Type.BOOL, mode is Mode.CHARGE)])
