@@ -2,13 +2,14 @@
 take longer than the claim's 1.5 s of listening: the duplicate ran (logged "ready", 8-280 ms) before the earlier
 claim arrived. Now it listens on while the graph shows a claim publisher whose claim has not come."""
 import json
+import os
 import re
 import time
 
 import pytest
 from std_msgs.msg import String
 
-from battery_simulator.ros2 import startup
+from battery_simulator.ros2 import local_claims, startup
 from ros2_probe import NodeProcess
 
 
@@ -88,3 +89,26 @@ def test_of_two_battery_sims_started_together_the_loser_never_says_ready(attempt
     finally:
         for process in both:
             process.stop()
+
+
+def test_a_battery_killed_and_not_yet_reaped_does_not_block_its_restart():
+    """SIGKILL leaves a zombie until its parent waits: its registry entry must not refuse the restart."""
+    import signal
+    import subprocess
+    first = subprocess.Popen(['battery_sim', '--ros-args', '-r', '__ns:=/zombie'], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.STDOUT)
+    again = None
+    try:
+        deadline = time.monotonic() + 30.0
+        path = local_claims.registry_path()
+        while time.monotonic() < deadline and not (os.path.exists(path) and '/zombie' in open(path).read()):
+            time.sleep(0.1)
+        first.send_signal(signal.SIGKILL)
+        time.sleep(0.5)   # dead, not reaped: a zombie
+        again = NodeProcess('battery_sim', '-r', '__ns:=/zombie')
+        assert again.wait_for_output('battery_simulator ready', 30.0), again.output()
+    finally:
+        first.kill()
+        first.wait()
+        if again is not None:
+            again.stop()

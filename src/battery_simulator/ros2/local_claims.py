@@ -20,11 +20,12 @@ def registry_path():
 
 
 def _process_start(pid):
-    """The start time of process ``pid`` (clock ticks since boot), or None if it does not run: a pid used
-    again by another process is not taken for the one that registered."""
+    """The start time of process ``pid`` (clock ticks since boot), or None if it does not run (a zombie, killed
+    and not yet reaped, does not): a pid used again by another process is not taken for the one that registered."""
     try:
         with open('/proc/%d/stat' % pid, encoding='ascii', errors='replace') as stream:
-            return int(stream.read().rsplit(')', 1)[1].split()[19])
+            fields = stream.read().rsplit(')', 1)[1].split()
+        return None if fields[0] in ('Z', 'X') else int(fields[19])
     except (OSError, IndexError, ValueError):
         return None
 
