@@ -5,9 +5,14 @@ battery_state_pub in one process), and with ``speed`` the clock ``sim_clock`` wi
 
 Every name is relative: ``namespace:=robot1`` for one battery per robot.
 """
+import os
+import tempfile
+
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch_ros.actions import Node
+
+from battery_simulator.ros2.respawn import respawning_node
 
 ARGUMENTS = (
     ('namespace', '', 'Namespace of the battery (e.g. robot1); empty: the root.'),
@@ -19,10 +24,13 @@ ARGUMENTS = (
     ('gauge_config', '', "A YAML file whose gauge section replaces the config's: a gauge preset "
      '(config/presets/gauge_impedance_track.yaml, gauge_modelgauge.yaml) with any pack. Empty: the config\'s.'),
     ('update_rate', '10', 'Model updates (and action feedback) per second, Hz.'),
-    ('state_file', '', 'Optional JSON file the state is saved to and resumed from.'),
+    ('state_file', '', 'JSON file the state is saved to and resumed from (ageing across runs); empty: a file of '
+                       "this launch's own, so that a respawned battery resumes (as ROS 1's does)."),
     ('low_percentage', '0.20', 'battery_low turns true below this fraction.'),
     ('critical_percentage', '0.05', 'battery_critical turns true below this fraction.'),
     ('hysteresis', '0.05', 'A low/critical event clears above its threshold plus this fraction.'),
+    ('battery_state_topic', 'battery_state', 'The same BatteryState also on this topic, relative to the robot '
+                                             '(opennav_docking reads battery_state). Empty: battery_status only.'),
     ('speed', '', 'Run on sim_clock this many times as fast as wall time (use_sim_time); empty: wall time.'),
     ('tick_hz', '1000', 'With speed: /clock ticks per wall second.'),
     ('clock_wait_for', '', 'With speed: topics (comma-separated) that must have a publisher before time runs.'),
@@ -43,7 +51,8 @@ def sim_nodes(values):
     battery = {
         'time_scale': float(values['time_scale']), 'initial_percentage': float(values['initial_percentage']),
         'charging': values['charging'].lower() in ('true', '1'), 'update_rate': float(values['update_rate']),
-        'state_file': values['state_file'], 'rate': float(values['rate']),
+        'state_file': state_file(values), 'rate': float(values['rate']),
+        'battery_state_topic': values['battery_state_topic'],
         'low_percentage': float(values['low_percentage']),
         'critical_percentage': float(values['critical_percentage']), 'hysteresis': float(values['hysteresis']),
         'use_sim_time': sim_time}
@@ -51,10 +60,19 @@ def sim_nodes(values):
         battery['config'] = values['config']
     if values['gauge_config']:
         battery['gauge_config'] = values['gauge_config']
-    # respawn: a crashed battery comes back; with state_file it resumes from it
-    nodes.append(Node(package='battery_simulator', executable='battery_sim', namespace=values['namespace'],
-                      output='screen', respawn=True, respawn_delay=1.0, parameters=[battery]))
+    # respawn: a crashed battery comes back and resumes from its state file; a start-up error (exit 2) ends the
+    # launch with its one line instead
+    nodes += respawning_node(delay_s=1.0, package='battery_simulator', executable='battery_sim',
+                             namespace=values['namespace'], output='screen', parameters=[battery])
     return nodes
+
+
+def state_file(values):
+    """The state_file argument, or (empty) a file of this launch's own, so that a respawned battery resumes where
+    it was, as ROS 1's does from ~saved_state; a new launch starts afresh."""
+    if values['state_file']:
+        return values['state_file']
+    return os.path.join(tempfile.mkdtemp(prefix='battery_sim_launch_'), 'state.json')
 
 
 def _nodes(context):

@@ -3,6 +3,7 @@ each file is read with a small stand-in for the launch and launch_ros modules th
 (arguments, OpaqueFunction, IncludeLaunchDescription), and every node it names is started with its
 parameters (a parameters file, as launch_ros writes one), name, namespace and remappings through this
 environment, and must come up: its node on the graph, and the topic it publishes."""
+import contextlib
 import importlib.util
 import os
 import sys
@@ -56,12 +57,32 @@ class Node(Recorded):
     pass
 
 
+class RegisterEventHandler(Recorded):
+    pass
+
+
+class OnProcessExit(Recorded):
+    pass
+
+
+class TimerAction(Recorded):
+    pass
+
+
+class Shutdown(Recorded):
+    pass
+
+
 def stand_in_modules():
     """launch, launch.actions, launch.launch_description_sources, launch_ros.actions and
     ament_index_python.packages: just what the launch files use."""
     modules = {name: types.ModuleType(name) for name in (
-        'launch', 'launch.actions', 'launch.launch_description_sources', 'launch_ros', 'launch_ros.actions',
-        'ament_index_python', 'ament_index_python.packages')}
+        'launch', 'launch.actions', 'launch.launch_description_sources', 'launch.event_handlers', 'launch_ros',
+        'launch_ros.actions', 'ament_index_python', 'ament_index_python.packages')}
+    modules['launch.actions'].RegisterEventHandler = RegisterEventHandler
+    modules['launch.actions'].TimerAction = TimerAction
+    modules['launch.actions'].Shutdown = Shutdown
+    modules['launch.event_handlers'].OnProcessExit = OnProcessExit
     modules['launch'].LaunchDescription = LaunchDescription
     modules['launch.actions'].DeclareLaunchArgument = DeclareLaunchArgument
     modules['launch.actions'].OpaqueFunction = OpaqueFunction
@@ -73,22 +94,39 @@ def stand_in_modules():
     return modules
 
 
-def nodes_of(path, arguments=None, modules=None):
-    """[Node] a launch file starts with ``arguments`` (its defaults for the rest), includes followed."""
+@contextlib.contextmanager
+def standing_in(modules=None):
+    """The stand-in launch modules in sys.modules (a launch file imports them, and so does its respawn rule when
+    an exit handler runs); the real ones (none here) back afterwards."""
     modules = modules or stand_in_modules()
     saved = {name: sys.modules.get(name) for name in modules}
     sys.modules.update(modules)
     try:
-        spec = importlib.util.spec_from_file_location('launch_file_%s' % Path(path).stem.replace('.', '_'), path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        description = module.generate_launch_description()
+        yield modules
     finally:
         for name, old in saved.items():
             if old is None:
                 sys.modules.pop(name, None)
             else:
                 sys.modules[name] = old
+
+
+def actions_of(path, arguments=None, modules=None):
+    """Every action a launch file gives with ``arguments`` (its defaults for the rest), includes followed."""
+    with standing_in(modules) as modules:
+        spec = importlib.util.spec_from_file_location('launch_file_%s' % Path(path).stem.replace('.', '_'), path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        description = module.generate_launch_description()
+        return _expanded(description, arguments, modules)
+
+
+def nodes_of(path, arguments=None, modules=None):
+    """[Node] a launch file starts with ``arguments`` (its defaults for the rest), includes followed."""
+    return [action for action in actions_of(path, arguments, modules) if isinstance(action, Node)]
+
+
+def _expanded(description, arguments, modules):
     values = {}
     found = []
     for action in description.args[0]:
@@ -100,12 +138,12 @@ def nodes_of(path, arguments=None, modules=None):
     for action in description.args[0]:
         if isinstance(action, OpaqueFunction):
             for made in action.kwargs['function'](context) or []:
-                if isinstance(made, Node):
-                    found.append(made)
-                elif isinstance(made, IncludeLaunchDescription):
+                if isinstance(made, IncludeLaunchDescription):
                     source = made.args[0]
-                    found += nodes_of(source.args[0], dict(made.kwargs.get('launch_arguments', ())), modules)
-        elif isinstance(action, Node):
+                    found += actions_of(source.args[0], dict(made.kwargs.get('launch_arguments', ())), modules)
+                else:
+                    found.append(made)
+        else:
             found.append(action)
     return found
 
@@ -117,8 +155,8 @@ def ros_args(node, params_dir):
     args = []
     if kwargs.get('name'):
         args += ['-r', '__node:=%s' % kwargs['name']]
-    if kwargs.get('namespace'):
-        args += ['-r', '__ns:=/%s' % kwargs['namespace'].strip('/')]
+    # launch_ros passes the namespace to every node, '/' when the launch file gives none
+    args += ['-r', '__ns:=/%s' % (kwargs.get('namespace') or '').strip('/')]
     for source, target in kwargs.get('remappings', ()):
         args += ['-r', '%s:=%s' % (source, target)]
     for index, parameters in enumerate(kwargs.get('parameters', ())):
@@ -180,7 +218,9 @@ def test_the_launch_files_start_the_executables_and_parameters_of_their_ros1_twi
     assert demo['patrol_and_dock'].kwargs['parameters'][0]['speed'] == 0.3
     assert ('cmd_vel', 'cmd_vel_nav') in demo['patrol_and_dock'].kwargs['remappings']
     sim = nodes_of(LAUNCH / 'sim.launch.py')
-    assert [n.kwargs['executable'] for n in sim] == ['battery_sim'] and sim[0].kwargs['respawn']
+    assert [n.kwargs['executable'] for n in sim] == ['battery_sim']
+    assert sim[0].kwargs['parameters'][0]['battery_state_topic'] == 'battery_state'
+    assert sim[0].kwargs['parameters'][0]['state_file'], 'a state file of its own: a respawned battery resumes'
     assert sim[0].kwargs['parameters'][0]['time_scale'] == 22.0 and not sim[0].kwargs['parameters'][0]['use_sim_time']
     dashboard = nodes_of(LAUNCH / 'dashboard.launch.py', {'allow_control': 'true'})
     assert dashboard[0].kwargs['parameters'][0] == {'host': '127.0.0.1', 'port': 8090, 'allow_control': True,
@@ -218,3 +258,56 @@ def test_every_node_of_a_launch_file_comes_up(probe, launch_file, arguments):
             process.stop()
     for node, process in processes:
         assert 'Traceback' not in process.output(), process.output()
+
+
+# -- issue 40 item 2: a process that ends with the start-up exit status is not respawned ----------------------
+
+def exit_handlers(actions, executable):
+    """[(Node, on_exit)] of every ``executable`` Node a launch gives, with its OnProcessExit handler's function."""
+    handlers = {id(action.args[0].kwargs['target_action']): action.args[0].kwargs['on_exit'] for action in actions
+                if isinstance(action, RegisterEventHandler) and isinstance(action.args[0], OnProcessExit)}
+    return [(action, handlers.get(id(action))) for action in actions
+            if isinstance(action, Node) and action.kwargs['executable'] == executable]
+
+
+@pytest.mark.parametrize('launch_file, arguments, executable', [
+    ('sim.launch.py', {}, 'battery_sim'), ('demo.launch.py', {}, 'battery_sim'),
+    ('fleet.launch.py', {'n': '4', 'hosts': '2'}, 'battery_fleet')])
+def test_a_start_up_error_ends_the_launch_and_anything_else_respawns(launch_file, arguments, executable):
+    """launch's OnProcessExit handler of each battery process, called as launch calls it (an exit event with
+    its return code, the launch context), through the stand-in modules: exit 2 (a bad argument, a duplicate)
+    gives Shutdown and no new process; a crash or SIGKILL gives the same node again after 1 s; nothing while
+    the launch is shutting down. launch_ros's own respawn (any exit) is not used."""
+    with standing_in() as modules:
+        actions = actions_of(LAUNCH / launch_file, arguments, modules)
+        pairs = exit_handlers(actions, executable)
+        assert pairs and len(pairs) == (2 if executable == 'battery_fleet' else 1), pairs
+        for node, on_exit in pairs:
+            assert not node.kwargs.get('respawn'), 'launch_ros respawns whatever the exit status'
+            assert on_exit is not None, '%s of %s has no exit handler' % (executable, launch_file)
+            running = types.SimpleNamespace(is_shutdown=False)
+            ended = on_exit(types.SimpleNamespace(returncode=2), running)
+            assert [type(a) for a in ended] == [Shutdown], 'exit 2 is respawned: %r' % ended
+            for code in (1, -9, 0):
+                again = on_exit(types.SimpleNamespace(returncode=code), running)
+                assert [type(a) for a in again] == [TimerAction] and again[0].kwargs['period'] == 1.0, again
+                respawned = [a for a in again[0].kwargs['actions'] if isinstance(a, Node)]
+                assert [n.kwargs for n in respawned] == [node.kwargs], 'the same node again'
+                assert exit_handlers(again[0].kwargs['actions'], executable)[0][1] is not None, \
+                    'the respawned node has the same rule'
+            assert not on_exit(types.SimpleNamespace(returncode=-2), types.SimpleNamespace(is_shutdown=True))
+
+
+def test_the_respawn_rule():
+    from battery_simulator.ros2.respawn import END_LAUNCH, NOTHING, RESPAWN, after_exit
+    assert after_exit(2, False) == END_LAUNCH
+    assert [after_exit(code, False) for code in (0, 1, -9, -11, 3)] == [RESPAWN] * 5
+    assert after_exit(2, True) == after_exit(-2, True) == NOTHING
+
+
+def test_fleet_launch_hosts_share_no_state_file():
+    nodes = nodes_of(LAUNCH / 'fleet.launch.py', {'n': '4', 'hosts': '2', 'state_file': '/tmp/fleet.json'})
+    files = [n.kwargs['parameters'][0]['state_file'] for n in nodes if n.kwargs['executable'] == 'battery_fleet']
+    assert files == ['/tmp/fleet_0.json', '/tmp/fleet_1.json']
+    one = nodes_of(LAUNCH / 'fleet.launch.py', {'n': '4', 'state_file': '/tmp/fleet.json'})
+    assert [n.kwargs['parameters'][0]['state_file'] for n in one] == ['/tmp/fleet.json']

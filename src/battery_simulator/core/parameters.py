@@ -551,7 +551,7 @@ def from_mapping(values, base=None, origin='parameters'):
     Unknown keys and bad values raise ParameterError naming ``origin`` and the key.
     """
     if not isinstance(values, dict):
-        raise ParameterError('%s: expected a mapping of parameter names, got %r' % (origin, values))
+        raise ParameterError('%s: expected a mapping of parameter names, got %s' % (origin, _what_it_is(values)))
     not_names = [key for key in values if not isinstance(key, str)]
     if not_names:
         raise ParameterError('%s: parameter names must be text, got %r' % (origin, not_names[0]))
@@ -598,6 +598,18 @@ def from_mapping(values, base=None, origin='parameters'):
         raise ParameterError('%s: %s' % (origin, error)) from None
 
 
+def _what_it_is(values, longest=40):
+    """A value in an error line: short ones as they are, long ones (a file that is not a config) by their kind
+    only, never their content."""
+    text = repr(values)
+    if len(text) <= longest and not isinstance(values, str):
+        return text
+    if isinstance(values, str):
+        return 'text of %d characters (is it a battery config?)' % len(values)
+    return 'a %s of %d items' % (type(values).__name__, len(values)) if hasattr(values, '__len__') else \
+        'a %s' % type(values).__name__
+
+
 def load_yaml(path):
     """Load parameters from a YAML file: a ``preset`` (default DEFAULT_PRESET) plus overrides.
 
@@ -612,8 +624,11 @@ def load_yaml(path):
         raise ParameterError('battery config %s is not UTF-8 text (byte %d)' % (path, error.start)) from None
     try:
         values = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        raise ParameterError('%s is not valid YAML: %s' % (path, ' '.join(str(error).split()))) from None
+    except yaml.YAMLError as error:   # its problem and where, not the file's text (config:=/etc/passwd)
+        mark = getattr(error, 'problem_mark', None)
+        where = ' (line %d, column %d)' % (mark.line + 1, mark.column + 1) if mark is not None else ''
+        raise ParameterError('%s is not valid YAML%s: %s' % (
+            path, where, getattr(error, 'problem', None) or type(error).__name__)) from None
     if values is None:
         raise ParameterError('battery config %s is empty: name a preset (e.g. "preset: %s") and any overrides'
                              % (path, DEFAULT_PRESET))

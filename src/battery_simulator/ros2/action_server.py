@@ -42,24 +42,29 @@ class _ActiveGoal:
 class BatterySimServer:
     """One battery's action, services, subscriptions, ``charging`` and live parameters on ``node``."""
 
-    def __init__(self, node, battery, namespace, log, status=None, store=None):
+    def __init__(self, node, battery, namespace, log, status=None, store=None, mode_parameter=True, graph_types=None):
         """``namespace``: '' for the node's own names, 'robot3/' in a fleet host's shared node;
-        ``status``: the BatteryStatePublisher fed at every update; ``store``: a saved-state keeper (maybe_save/save_now)."""
+        ``status``: the BatteryStatePublisher fed at every update; ``store``: a saved-state keeper (maybe_save/save_now);
+        ``mode_parameter``: the node's ``charging`` follows the mode (False on a shared node, whose parameters
+        are the host's); ``graph_types``: a GraphTypes shared by the fronts of one node (velocity.py)."""
         self.node, self.battery, self._log = node, battery, log
+        self._mode_parameter = mode_parameter
         self._status = status
         self._store = store
         self._active = None
         self._goals = {}           # goal id -> its _ActiveGoal, until its execute callback takes it
         self._running = 0          # execute callbacks not yet returned (their results not yet sent)
         self._setting_mode = False
+        self._finishing = False   # after finish(): the server is shutting down, new goals are rejected
         ns = namespace
         self._state_pub = node.create_publisher(BatterySimState, ns + topics.STATE_TOPIC, LATCHED_QOS)
         self._action = ActionServer(node, BatterySim, ns + topics.ACTION, execute_callback=self._execute,
-                                    goal_callback=lambda goal: GoalResponse.ACCEPT,
+                                    goal_callback=self._goal_response,
                                     handle_accepted_callback=self._accepted,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT)
         self._cmd_vel_name = ns + topics.CMD_VEL
-        self._cmd_vel = VelocityInput(node, ns + topics.CMD_VEL, self._on_cmd_vel)   # Twist or TwistStamped
+        self._cmd_vel = VelocityInput(node, ns + topics.CMD_VEL, self._on_cmd_vel,   # Twist or TwistStamped
+                                      graph_types=graph_types)
         node.create_subscription(Bool, ns + topics.CHARGER_CONTACT, self._on_contact, 10)
         self.services = BatteryServices(node, ns, self)
 
@@ -99,6 +104,8 @@ class BatterySimServer:
 
     def _write_mode(self, mode):
         """Write ``charging`` to match a mode the battery took from a goal or the contact."""
+        if not self._mode_parameter:
+            return
         self._setting_mode = True
         try:
             self.node.set_parameters([Parameter(MODE_PARAMETER, Parameter.Type.BOOL, mode is Mode.CHARGE)])
@@ -130,6 +137,7 @@ class BatterySimServer:
     def finish(self):
         """At shutdown, while the context is up: end the active goal (aborted, "server shutting down") and
         save the state. Returns a function telling whether the goal's result has been sent."""
+        self._finishing = True
         if self._active is not None:
             self._end_goal(self.battery.preempted(SHUTDOWN_TEXT))
         if self._store is not None:
@@ -137,6 +145,14 @@ class BatterySimServer:
         return lambda: self._running == 0
 
     # -- the action ------------------------------------------------------------------------------
+
+    def _goal_response(self, goal):
+        """Every goal is accepted, but once the server is shutting down (its state saved, its last results on
+        their way): one accepted then would never run."""
+        if self._finishing:
+            self._log.warn_throttle(LOG_PERIOD_S, 'goal rejected: %s', SHUTDOWN_TEXT)
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
 
     def _accepted(self, handle):
         """A new goal preempts the active one (SimpleActionServer's rule) and executes at once; the updates

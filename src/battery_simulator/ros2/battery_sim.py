@@ -37,11 +37,12 @@ from battery_simulator.ros2 import services
 from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer, mode_refusal
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, descriptor, ending_quietly,
-                                            exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
-                                            run, steady_clock)
+                                            exit_on_startup_error, explain_parameter_refusals, init, own_node,
+                                            parameter_name, run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 
 DIAGNOSTIC_PERIOD_S = 0.5
+STATUS_NODE = 'battery_state_pub'
 #: the battery settings a ROS 2 node reads at start-up (``charging`` is the live mode parameter instead)
 STARTUP_SETTINGS = tuple(s for s in BATTERY_SETTINGS if s.name not in ('charging', 'time_scale'))
 TIME_SCALE = next(s for s in BATTERY_SETTINGS if s.name == 'time_scale')
@@ -173,11 +174,17 @@ def finish(front):
     return finished
 
 
+def status_node_name(battery_node):
+    """battery_state_pub, beside the battery node in its namespace whatever ``-r __node:=`` renamed the battery
+    node to (a global remap would rename both to one name); never the battery node's own name."""
+    return STATUS_NODE if battery_node.get_name() != STATUS_NODE else STATUS_NODE + '_status'
+
+
 def main(args=None):
     with ending_quietly():
         init(args)
         battery_node = Node('battery_simulator')
-        status_node = Node('battery_state_pub')
+        status_node = own_node(status_node_name(battery_node), battery_node.get_namespace())
         executor = SingleThreadedExecutor()
         executor.add_node(battery_node)
         executor.add_node(status_node)

@@ -32,10 +32,6 @@ def main(argv=None):
     ours = argv[:argv.index('--ros-args')] if ros_args else argv
     args = goal_request(ours)
 
-    def _stop(signum, frame):
-        raise _Stop()
-    signal.signal(signal.SIGINT, _stop)
-    signal.signal(signal.SIGTERM, _stop)
     import rclpy
     from action_msgs.msg import GoalStatus
     from rclpy.action import ActionClient
@@ -60,6 +56,11 @@ def main(argv=None):
     charge = args.charge
     goal_handle = None
     code = 1
+
+    def _stop(signum, frame):   # from here on a stop cancels the goal (before: ros2/__init__'s one line, exit 130)
+        raise _Stop()
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
     try:
         if not client.wait_for_server(timeout_sec=args.server_timeout):
             print('battery_sim_client: no action server %s after %g s'

@@ -40,6 +40,10 @@ from battery_simulator.ros2.sim_clock import SimClock
 from battery_simulator.ros2.startup import BatteryClaim, StartupError, ending_quietly, exit_on_startup_error, init, run
 
 GAUGES = GAUGE_CONFIGS
+#: a mobile robot's cruising speed at most: the patrol, the dock's approach and its contact assume it
+MAX_ROBOT_SPEED = 2.0
+#: what else battery_demo takes on its command line (ROS 2's own)
+ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 SPEED = next(s for s in clock_rule.SETTINGS if s.name == 'speed')
 SETTINGS = (
     SPEED._replace(default=60.0, description='the whole demo runs this many times as fast as wall time'),
@@ -57,8 +61,8 @@ SETTINGS = (
             'lets rest on the dock once full', False),
     Setting('config', '', lambda v: isinstance(v, str), 'a path to a YAML file (or empty: by gauge)',
             'battery parameters (empty: config/battery.yaml, or battery_realistic.yaml with gauge realistic)', False),
-    Setting('robot_speed', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m/s', "the robot's cruising speed",
-            False),
+    Setting('robot_speed', 0.3, lambda v: is_number(v) and 0 < v <= MAX_ROBOT_SPEED,
+            'a number in (0, %g] m/s' % MAX_ROBOT_SPEED, "the robot's cruising speed", False),
     Setting('dock_x', 0.0, is_number, 'a number (m)', 'the dock, x (m)', False),
     Setting('dock_y', 0.0, is_number, 'a number (m)', 'the dock, y (m)', False),
 )
@@ -124,6 +128,11 @@ def main(args=None):
         init(args)
         demo_node = Node('battery_demo')
         settings = read_settings(demo_node, SETTINGS)
+        unknown = sorted(set(demo_node._parameter_overrides) - {s.name for s in SETTINGS} - set(ROS_PARAMETERS))
+        if unknown:   # rclpy keeps no public view of the overrides
+            exit_on_startup_error(StartupError('parameter %s is not a parameter of %s; its parameters: %s' % (
+                unknown[0], demo_node.get_fully_qualified_name(), ', '.join(s.name for s in SETTINGS))),
+                demo_node.get_logger())
         demo = Demo(demo_node, settings)
         executor = SingleThreadedExecutor()
         for node in demo.nodes:

@@ -32,6 +32,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
+from battery_simulator.core.battery import BatteryError
 from battery_simulator.core.battery_log import resume_battery, say_ready
 from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, is_first,
                                           is_fleet_rate, robot_configs, robot_params, robot_specs)
@@ -40,16 +41,24 @@ from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2 import services
-from battery_simulator.ros2.battery_sim import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
+from battery_simulator.ros2.battery_sim import (STATUS_NODE, STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
                                                  declare_mode, diagnostics_publisher, make_battery,
                                                  read_publisher_settings)
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, ending_quietly,
-                                            exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
-                                            run, steady_clock)
+from battery_simulator.ros2.startup import (BatteryClaim, StartupError, child_namespace, declare_settings, ending_quietly,
+                                            exit_on_startup_error, explain_parameter_refusals, init, own_node,
+                                            parameter_name, run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
+from battery_simulator.ros2.velocity import GraphTypes
 
 FLEET_STATES = '/battery_fleet/states'
+ROBOT_NODE = 'battery_simulator'
+#: a fleet of at most this many robots gives each robot a node ``<ns>/<name>/battery_simulator`` with its parameters
+#: (``ros2 param set /robot3/battery_simulator charging true``); a larger one puts every robot's names on the host's
+#: node and a robot's mode is set through its services (set_charging, charger_contact, a goal). Measured here:
+#: nodes with parameter services cost the square of their number (300: 11.0 s and 376 MB to create; without
+#: them 0.4 s and 119 MB), and a fleet of 250 lean nodes took 27 s and 414 MB to start
+PARAMETER_SERVICES_UP_TO = 100
 FLEET_DIAGNOSTIC_PERIOD_S = 1.0   # a fleet's DiagnosticArray (every robot's status) once a second
 #: the fleet host's model updates (and its one timer) per second: every executor wake-up rebuilds the wait set of
 #: every robot (the host's main cost), so once a second (feedback is due once a second; changes act at once)
@@ -111,9 +120,9 @@ def _given(node, name):
 class Robot:
     """One robot of the fleet: its node, battery and fronts."""
 
-    def __init__(self, spec, settings, params, store, executor):
+    def __init__(self, spec, settings, params, store, executor, host_namespace='/', graph_types=None):
         self.name = spec.name
-        self.node = Node('battery_simulator', namespace='/' + spec.name)
+        self.node = own_node(ROBOT_NODE, child_namespace(host_namespace, spec.name))
         explain_parameter_refusals(self.node)
         executor.add_node(self.node)
         self.log = NodeLog(self.node.get_logger())
@@ -123,9 +132,48 @@ class Robot:
         declare_live(self.node, self.battery)
         self.store = store.robot(spec.name)
         self.resumed = resume_battery(self.battery, self.store.load(), 'the fleet state file', self.log)
-        self.status = BatteryStatePublisher(self.node, '', spec.name + '/battery_state_pub', log=self.log, **settings.publisher)
-        self.front = BatterySimServer(self.node, self.battery, '', self.log, self.status, self.store)
+        self.status = BatteryStatePublisher(self.node, '', child_namespace(self.node.get_namespace(), STATUS_NODE)
+                                            .lstrip('/'), log=self.log, **settings.publisher)
+        self.front = BatterySimServer(self.node, self.battery, '', self.log, self.status, self.store,
+                                      graph_types=graph_types)
         self.node.add_on_set_parameters_callback(self.front.on_set_parameters)
+
+
+class SharedRobot:
+    """One robot of a large fleet on the host's node: every name of one battery under ``<host ns>/<name>/`` (the
+    action, the services, cmd_vel, charger_contact, battery_status, battery_state, low/critical, the diagnostics
+    status), no node of its own, so no ``charging`` parameter: its mode is set through ``set_charging``,
+    ``charger_contact`` or a goal. A node per robot costs its own endpoints and graph traffic on top of the
+    robot's (see PARAMETER_SERVICES_UP_TO)."""
+
+    def __init__(self, spec, settings, params, store, host_node, live, graph_types):
+        self.name = spec.name
+        self.node = host_node
+        self.log = NodeLog(host_node.get_logger().get_child(spec.name))
+        battery_settings = dict(settings.battery, initial_percentage=spec.initial_percentage)
+        self.battery = make_battery(host_node, battery_settings, params, spec.charging, self.log)
+        for name, value in live.items():
+            try:
+                self.battery.set_live(name, value)
+            except BatteryError as error:
+                raise StartupError('parameter %s = %r is invalid: %s' % (
+                    parameter_name(host_node, name), value, str(error).split('; keeping')[0])) from None
+        self.store = store.robot(spec.name)
+        self.resumed = resume_battery(self.battery, self.store.load(), 'the fleet state file', self.log)
+        prefix = spec.name + '/'
+        self.status = BatteryStatePublisher(host_node, prefix, child_namespace(
+            child_namespace(host_node.get_namespace(), spec.name), STATUS_NODE).lstrip('/'), log=self.log,
+            **settings.publisher)
+        self.front = BatterySimServer(host_node, self.battery, prefix, self.log, self.status, self.store,
+                                      mode_parameter=False, graph_types=graph_types)
+
+
+def host_live_settings(node):
+    """The live battery settings given to the host (``-p load_power_w:=...``), checked: {name: value} for every
+    robot of a shared-node fleet."""
+    from battery_simulator.core.battery import LIVE_PARAMETERS
+    return {name: node.declare_parameter(name, 0.0, _any('live battery setting of every robot (at start)')).value
+            for name in LIVE_PARAMETERS if _given(node, name)}
 
 
 class FleetHost:
@@ -137,8 +185,13 @@ class FleetHost:
                                             settings.battery['time_scale'])
         self._store = FleetStateFile(settings.battery['state_file'], NodeLog(node.get_logger()).warn,
                                      period_s=save_period_s) if settings.battery['state_file'] else _NoStore()
-        self.robots = [Robot(spec, settings, robot_params(settings.configs[spec.config], spec.name), self._store,
-                             executor)
+        self.shared = len(settings.robots) > PARAMETER_SERVICES_UP_TO
+        live = host_live_settings(node) if self.shared else {}
+        graph_types = GraphTypes(node)
+        self.robots = [SharedRobot(spec, settings, robot_params(settings.configs[spec.config], spec.name),
+                                   self._store, node, live, graph_types) if self.shared else
+                       Robot(spec, settings, robot_params(settings.configs[spec.config], spec.name), self._store,
+                             executor, node.get_namespace(), graph_types)
                        for spec in settings.robots]
         for robot in self.robots:
             robot.front.update()
@@ -230,7 +283,7 @@ def main(args=None):
         host = claim = None
         try:
             settings = FleetSettings(node)
-            claim = BatteryClaim(node, ['/' + robot.name for robot in settings.robots],
+            claim = BatteryClaim(node, [child_namespace(node.get_namespace(), robot.name) for robot in settings.robots],
                                  '%s (a fleet host)' % node.get_fully_qualified_name())
             claim.wait(executor)
             host = FleetHost(node, settings, executor)

@@ -11,12 +11,35 @@ TYPE_CHECK_S = 2.0   # how often the publishers' types are looked up (a graph qu
 MESSAGE_CLASSES = {TWIST: Twist, TWIST_STAMPED: TwistStamped}
 
 
+#: the graph's type names of the two messages, as get_topic_names_and_types gives them
+TYPE_NAMES = {TWIST: 'geometry_msgs/msg/Twist', TWIST_STAMPED: 'geometry_msgs/msg/TwistStamped'}
+
+
+class GraphTypes:
+    """Every topic's types on the graph, looked up at most every TYPE_CHECK_S in one query, for the many
+    VelocityInputs of one node (a fleet host): a per-topic publishers query scans the whole graph, 4.5 ms a call
+    with 250 robots (a third of the host's CPU when every robot asked every 2 s)."""
+
+    def __init__(self, node):
+        self._node = node
+        self._types = {}
+        self._at = None
+
+    def __call__(self, now):
+        if self._at is None or now - self._at >= TYPE_CHECK_S:
+            self._at = now
+            self._types = dict(self._node.get_topic_names_and_types())
+        return self._types
+
+
 class VelocityInput:
     """A ``cmd_vel`` subscription on ``node`` that follows its publishers' type; ``on_twist(twist)`` gets the
-    Twist of either message."""
+    Twist of either message. ``graph_types``: a shared GraphTypes (a fleet host's): the publishers are looked
+    up only when the topic shows a type other than the one taken."""
 
-    def __init__(self, node, topic, on_twist, qos=1):
+    def __init__(self, node, topic, on_twist, qos=1, graph_types=None):
         self._node = node
+        self._graph_types = graph_types
         self._topic = node.resolve_topic_name(topic)
         self._on_twist = on_twist
         self._qos = qos
@@ -34,6 +57,9 @@ class VelocityInput:
         if now - self._checked_at < TYPE_CHECK_S:
             return None
         self._checked_at = now
+        if self._graph_types is not None and \
+                set(self._graph_types(now).get(self._topic, ())) <= {TYPE_NAMES[self.kind]}:
+            return None   # no publisher, or only of the type taken: nothing to change
         wanted = velocity_type_to_take([info.topic_type for info in
                                         self._node.get_publishers_info_by_topic(self._topic)], self.kind)
         if wanted == self.kind:
