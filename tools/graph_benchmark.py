@@ -320,13 +320,26 @@ def fleet_host_pids(hosts):
     return list(process_ids(names).values())
 
 
+#: (n, hosts, update_rate or None for fleet.launch's, targets: first battery_status, CPU, memory)
+FLEET_CASES = ((1, 1, None, '', '', ''), (10, 1, None, '', '', ''),
+               (100, 1, None, '<= 10 s', '<= 8 %', '<= 100 MB'),
+               (1000, 4, None, '<= 30 s', '<= 40 %', '<= 500 MB'), (1000, 4, 10, '', '', ''))
+
+
 def measure_fleet(processes, rows, master=None):
     """fleet.launch at N = 1, 10, 100 (one host) and 1000 (hosts:=4), with every battery_status subscribed."""
+    fleet_cases(processes, rows, master, FLEET_CASES)
+
+
+def measure_fleet1000(processes, rows, master=None):
+    """fleet.launch n:=1000 hosts:=4 alone (the fleet row of README), with every battery_status subscribed."""
+    fleet_cases(processes, rows, master, [case for case in FLEET_CASES if case[0] == 1000 and not case[2]])
+
+
+def fleet_cases(processes, rows, master, cases):
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))   # this process subscribes to every robot
-    for n, hosts, update_rate, first_target, cpu_target, memory_target in (
-            (1, 1, None, '', '', ''), (10, 1, None, '', '', ''), (100, 1, None, '<= 10 s', '<= 8 %', '<= 100 MB'),
-            (1000, 4, None, '<= 30 s', '<= 40 %', '<= 500 MB'), (1000, 4, 10, '', '', '')):
+    for n, hosts, update_rate, first_target, cpu_target, memory_target in cases:
         arrivals = [Arrivals('/robot%d/battery_status' % i) for i in range(n)]
         started = time.monotonic()
         fleet = processes.start(['prlimit', '--nofile=1024:%d' % hard, 'roslaunch', 'battery_simulator',
@@ -439,18 +452,24 @@ def dashboard_batteries(port):
         return -1
 
 
-def run(sections):
-    """Start a master, run the named sections, return the table rows."""
+#: a busy loop: one core's worth of other work beside a measurement (``--hogs=N``)
+HOG = 'while True:\n    pass'
+
+
+def run(sections, hogs=0):
+    """Start a master (and ``hogs`` busy loops beside the graph), run the named sections, return the table rows."""
     port = free_port()
     os.environ['ROS_MASTER_URI'] = 'http://127.0.0.1:%d' % port
     processes = Processes()
     master = processes.start(['rosmaster', '--core', '-p', str(port)])
+    for _ in range(hogs):
+        processes.start([sys.executable, '-c', HOG])
     rows = []
     try:
         wait_until(lambda: rosgraph.Master('/graph_benchmark').is_online(), 30.0, 'the master')
         rospy.init_node('graph_benchmark', disable_signals=True)
         for section in sections:
-            if section is measure_fleet:
+            if section in (measure_fleet, measure_fleet1000):
                 section(processes, rows, master)
             else:
                 section(processes, rows)
@@ -460,4 +479,6 @@ def run(sections):
 
 
 SECTIONS = (measure_goals, measure_contact, measure_cost_and_start, measure_prediction, measure_rates, measure_fleet,
-            measure_dashboard)
+            measure_dashboard, measure_fleet1000)
+#: sections run only when named (``tools/benchmark.sh fleet1000``): a part of another one
+ON_REQUEST = (measure_fleet1000,)
