@@ -1,5 +1,6 @@
 #!/bin/bash
 # tools/netns_fleet.sh [--ros 1|2] [--hosts 3] [--robots 250] [--resume] [--measure SECONDS] [--timeout SECONDS]
+#                      [--time-scale 22] [--logs DIR]
 #
 # A fleet spread over several hosts, proven on one machine: Linux network namespaces stand for the
 # machines. It makes one namespace per fleet host, one for the observer and one holding only the bridge
@@ -14,6 +15,7 @@
 # and, when asked:
 #   --measure S: each robot's rate over S s, and the CPU and memory of the server (or master) and hosts;
 #   --resume:    host 1 is killed with SIGKILL and started again; every robot of it must resume within 1 %.
+# --time-scale: every robot's (fleet.launch's default, 22); --logs DIR: every process's log copied there at the end.
 # Then it ends every process it started (by pid) and deletes the namespaces, on every way out.
 # Exit: 0 when every robot was seen (and, with --resume, resumed within 1 %), 1 otherwise, 2 on a bad
 # argument or a refused start, 77 when namespaces cannot be made here (not root, no `ip netns`).
@@ -51,7 +53,7 @@ if [ "$1" = --run-in ]; then
   exec ip netns exec "$ns" "$@"
 fi
 
-ros=2 hosts=3 robots=250 resume=0 measure=0 timeout=180
+ros=2 hosts=3 robots=250 resume=0 measure=0 timeout=180 time_scale=22 logs=
 while [ $# -gt 0 ]; do
   case $1 in
     --ros) ros=$2; shift 2 ;;
@@ -60,6 +62,8 @@ while [ $# -gt 0 ]; do
     --resume) resume=1; shift ;;
     --measure) measure=$2; shift 2 ;;
     --timeout) timeout=$2; shift 2 ;;
+    --time-scale) time_scale=$2; shift 2 ;;
+    --logs) logs=$2; shift 2 ;;
     *) say "unknown argument '$1'"; usage ;;
   esac
 done
@@ -68,6 +72,9 @@ case $ros in 1|2) ;; *) say "--ros $ros is invalid: must be 1 or 2"; exit 2 ;; e
 [[ $robots =~ ^[0-9]+$ ]] && [ "$robots" -ge 1 ] || { say "--robots $robots is invalid: must be a whole number >= 1"; exit 2; }
 [[ $measure =~ ^[0-9]+$ ]] || { say "--measure $measure is invalid: must be whole seconds"; exit 2; }
 [[ $timeout =~ ^[0-9]+$ ]] || { say "--timeout $timeout is invalid: must be whole seconds"; exit 2; }
+[[ $time_scale =~ ^[0-9]+(\.[0-9]+)?$ ]] || { say "--time-scale $time_scale is invalid: must be a positive number"; exit 2; }
+[ -z "$logs" ] || mkdir -p "$logs" || { say "--logs $logs: cannot make that directory"; exit 2; }
+[[ $time_scale == *.* ]] || time_scale=$time_scale.0   # a ROS 2 double parameter refuses an integer
 [ "$resume" = 0 ] || [ "$hosts" -ge 2 ] || { say "--resume needs --hosts 2 or more (host 1 is killed)"; exit 2; }
 
 # Where namespaces cannot be made, say why (the test skips with that reason).
@@ -88,6 +95,7 @@ cleanup() {
     kill -KILL "$pid" 2>/dev/null || true
   done
   for ns in "${namespaces[@]}"; do ip netns del "$ns" 2>/dev/null || true; done
+  [ -z "$logs" ] || cp "$dir"/*.log "$dir"/observer.* "$logs"/ 2>/dev/null || true
   rm -rf "$dir"
 }
 trap cleanup EXIT
@@ -134,13 +142,13 @@ start_host() {
   if [ "$ros" = 2 ]; then
     # shellcheck disable=SC2046
     start_in "$run"h"$k" "$dir/host$k.log" $(ros_env) battery_fleet --ros-args -p robots:=$robots -p first:=$first \
-      -p update_rate:=2.0 -p time_scale:=22.0 -p state_file:="$dir/host$k.json" \
+      -p update_rate:=2.0 -p time_scale:="$time_scale" -p state_file:="$dir/host$k.json" \
       -r battery_fleet:__node:=$([ "$k" = 0 ] && echo battery_fleet || echo "battery_fleet_$k")
   else
     # shellcheck disable=SC2046
     start_in "$run"h"$k" "$dir/host$k.log" $(ros_env "$(host_ip "$k")") /usr/bin/python3 "$root/scripts/battery_fleet.py" \
       __name:=$([ "$k" = 0 ] && echo battery_fleet || echo "battery_fleet_$k") \
-      _robots:=$robots _first:=$first _update_rate:=2.0 _time_scale:=22.0
+      _robots:=$robots _first:=$first _update_rate:=2.0 _time_scale:="$time_scale"
   fi
   host_pids[$k]=$started
 }
@@ -237,7 +245,11 @@ if [ "$resume" = 1 ] && [ $status = 0 ]; then
   start_host 1
   answer=$(ask "resumed $restarted_s $timeout" $((timeout + 30)))
   # the host's own word that each robot resumed from its saved state (not a fresh start at its first level)
-  resumed_logged=$(tail -n +$((logged + 1)) "$dir/host1.log" | grep -c 'resumed from' || true)
+  for _ in $(seq 100); do   # (the host may log its lines after its robots publish again)
+    resumed_logged=$(tail -n +$((logged + 1)) "$dir/host1.log" | grep -c 'resumed from' || true)
+    [ "$resumed_logged" -lt "$robots" ] || break
+    sleep 0.1
+  done
   echo "host 1 killed with SIGKILL and started again: $answer; $resumed_logged of $robots logged 'resumed from'"
   [[ $answer =~ within\ 1\ %:\ yes ]] && [ "$resumed_logged" = "$robots" ] || status=1
 fi

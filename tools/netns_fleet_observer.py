@@ -113,9 +113,12 @@ def resumed(robots, killed, restarted_s, timeout_s):
         if len(pairs) == len(names) or time.monotonic() > deadline:
             break
         time.sleep(POLL_S)
-    worst = max((abs(a - b) for b, a in pairs.values()), default=float('nan'))
-    return 'resumed %d of %d robots, worst |after - before| %.2f %% (within 1 %%: %s)' % (
-        len(pairs), len(names), 100.0 * worst, 'yes' if len(pairs) == len(names) and worst < 0.01 else 'no')
+    worst = max(pairs, key=lambda name: abs(pairs[name][1] - pairs[name][0]), default=None)
+    change = abs(pairs[worst][1] - pairs[worst][0]) if worst else float('nan')
+    return 'resumed %d of %d robots, worst |after - before| %.2f %% (%s: %.2f %% -> %.2f %%) (within 1 %%: %s)' % (
+        len(pairs), len(names), 100.0 * change, worst, 100.0 * pairs[worst][0] if worst else float('nan'),
+        100.0 * pairs[worst][1] if worst else float('nan'),
+        'yes' if len(pairs) == len(names) and change < 0.01 else 'no')
 
 
 def main():
