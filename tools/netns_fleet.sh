@@ -131,7 +131,8 @@ ros_env() {
     echo "$root/tools/ros2.sh" env -u FASTDDS_DEFAULT_PROFILES_FILE FASTDDS_BUILTIN_TRANSPORTS=UDPv4 \
          ROS_DISCOVERY_SERVER="$OBSERVER_IP:$DISCOVERY_PORT" ROS_LOG_DIR="$dir/log"
   else
-    echo env ROS_MASTER_URI="http://$OBSERVER_IP:$MASTER_PORT" ROS_IP="$1" ROS_HOME="$dir" ROS_LOG_DIR="$dir/log"
+    # (ROS_HOSTNAME, when set, would win over ROS_IP)
+    echo env -u ROS_HOSTNAME ROS_MASTER_URI="http://$OBSERVER_IP:$MASTER_PORT" ROS_IP="$1" ROS_HOME="$dir" ROS_LOG_DIR="$dir/log"
   fi
 }
 

@@ -7,7 +7,7 @@ robot<M-1>) from the observer's network namespace, on ROS 1 (rospy: ROS_MASTER_U
 It reads one command a line on standard input and answers each with one line on standard output:
 
     seen TIMEOUT START         -> seen N of M robots from the observer host in T s   (T: since START, epoch s)
-    rates SECONDS              -> rates MIN .. MAX Hz over S s (every robot)
+    rates SECONDS              -> rates MIN .. MAX Hz received, MIN .. MAX Hz stamped, over S s (every robot)
     killed T FIRST COUNT       -> (nothing) robots FIRST .. FIRST+COUNT-1 lost their host at T (epoch s)
     resumed T TIMEOUT          -> resumed K of COUNT robots, worst |after - before| X % (within 1 %: yes|no)
                                   (before: each robot's last level stamped before the kill; after: its first
@@ -91,11 +91,13 @@ def rates(robots, seconds):
     start = time.time()
     time.sleep(seconds)
     end = time.time()
-    measured = []
+    received, stamped = [], []   # as they arrived here, and as their hosts stamped them (sent)
     for items in robots.snapshot().values():
-        times = [t for t, _, _ in items if start <= t <= end]
-        measured.append((len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else 0.0)
-    return 'rates %.4f .. %.4f Hz over %.0f s (every robot)' % (min(measured), max(measured), seconds)
+        window = [(t, stamp) for t, stamp, _ in items if start <= t <= end]
+        for rates, times in ((received, [t for t, _ in window]), (stamped, [stamp for _, stamp in window])):
+            rates.append((len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else 0.0)
+    return 'rates %.4f .. %.4f Hz received, %.4f .. %.4f Hz stamped, over %.0f s (every robot)' % (
+        min(received), max(received), min(stamped), max(stamped), seconds)
 
 
 def resumed(robots, killed, restarted_s, timeout_s):
