@@ -101,10 +101,10 @@ class Watch:
 
 def run_tool(ros):
     tool = subprocess.Popen([TOOL, '--ros', str(ros), '--hosts', str(HOSTS), '--robots', str(ROBOTS), '--resume',
-                             '--timeout', '90', '--time-scale', str(TIME_SCALE)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             '--timeout', '150', '--time-scale', str(TIME_SCALE)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     watch = Watch(tool)
     try:
-        out, err = tool.communicate(timeout=300)
+        out, err = tool.communicate(timeout=420)
     finally:
         if tool.poll() is None:
             tool.terminate()   # its trap ends what it started and deletes its namespaces
