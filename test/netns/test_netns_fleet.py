@@ -101,7 +101,8 @@ class Watch:
 
 def run_tool(ros):
     tool = subprocess.Popen([TOOL, '--ros', str(ros), '--hosts', str(HOSTS), '--robots', str(ROBOTS), '--resume',
-                             '--timeout', '150', '--time-scale', str(TIME_SCALE)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             '--timeout', '150', '--time-scale', str(TIME_SCALE)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     watch = Watch(tool)
     try:
         out, err = tool.communicate(timeout=420)
