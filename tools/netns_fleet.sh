@@ -244,7 +244,8 @@ if [ "$resume" = 1 ] && [ $status = 0 ]; then
   logged=$(wc -l <"$dir/host1.log")
   restarted_s=$(date +%s.%N)
   start_host 1
-  answer=$(ask "resumed $restarted_s $timeout" $((timeout + 30)))
+  # the observer reads the host's log past its first $logged lines (the restarted host's) as it grows
+  answer=$(ask "resumed $restarted_s $timeout $dir/host1.log $logged" $((timeout + 30)))
   # the host's own word that each robot resumed from its saved state (not a fresh start at its first level)
   for _ in $(seq 100); do   # (the host may log its lines after its robots publish again)
     resumed_logged=$(tail -n +$((logged + 1)) "$dir/host1.log" | grep -c 'resumed from' || true)

@@ -9,12 +9,15 @@ It reads one command a line on standard input and answers each with one line on 
     seen TIMEOUT START         -> seen N of M robots from the observer host in T s   (T: since START, epoch s)
     rates SECONDS              -> rates MIN .. MAX Hz received, MIN .. MAX Hz stamped, over S s (every robot)
     killed T FIRST COUNT       -> (nothing) robots FIRST .. FIRST+COUNT-1 lost their host at T (epoch s)
-    resumed T TIMEOUT          -> resumed K of COUNT robots, worst |after - before| X % (within 1 %: yes|no)
-                                  (before: each robot's last level stamped before the kill; after: its first
-                                  stamped after T, when its host was started again)
+    resumed T TIMEOUT LOG SKIP -> resumed K of COUNT robots (and P publish again), worst |resumed - last seen
+                                  before the kill| X % (...), first message after: Y % (...) (within 1 %: yes|no)
+                                  (resumed: the level the host's LOG, past SKIP lines, says each robot resumed at;
+                                  last seen: its last level stamped before the kill; first after: stamped after T,
+                                  the restart)
     quit
 """
 import os
+import re
 import sys
 import threading
 import time
@@ -100,27 +103,57 @@ def rates(robots, seconds):
         min(received), max(received), min(stamped), max(stamped), seconds)
 
 
-def resumed(robots, killed, restarted_s, timeout_s):
+#: a host's line for each robot it resumed (ROS 1: "robot7: battery_simulator resumed from ...: 41.2 %, ...";
+#: ROS 2: "[robot7.battery_simulator]: battery_simulator resumed from ...: 41.2 %, ...")
+RESUMED_LINE = re.compile(r'(robot\d+)(?::|\.battery_simulator\]:) battery_simulator resumed from .*?: ([0-9.]+) %')
+
+
+def resumed_levels(log_path, skip):
+    """{robot: the level (0..1) its host says it resumed at}, from the host's log past its first ``skip``
+    lines (those of the run before the kill)."""
+    with open(log_path, encoding='utf-8', errors='replace') as stream:
+        lines = stream.readlines()[skip:]
+    return {m.group(1): float(m.group(2)) / 100.0 for m in map(RESUMED_LINE.search, lines) if m}
+
+
+def worst_change(pairs):
+    """'X % (robotN: a % -> b %)' of the pair (before, after) that differs most."""
+    if not pairs:
+        return float('nan'), 'none'
+    name = max(pairs, key=lambda n: abs(pairs[n][1] - pairs[n][0]))
+    before, after = pairs[name]
+    return abs(after - before), '%.2f %% (%s: %.2f %% -> %.2f %%)' % (
+        100.0 * abs(after - before), name, 100.0 * before, 100.0 * after)
+
+
+def resumed(robots, killed, restarted_s, timeout_s, log_path, skip):
+    """Each robot of the killed host: the level it resumed at (its host's log) against the last level seen
+    before the kill (within 1 %: the resume), and its first battery_status after the restart (that it
+    publishes again; its level also holds the battery's run between the resume and that message, which a
+    slow start on a loaded machine lengthens)."""
     killed_s, first, count = killed
     names = robots.names[first:first + count]
     deadline = time.monotonic() + timeout_s
     while True:
         arrivals = robots.snapshot(names)
-        pairs = {}
+        levels = resumed_levels(log_path, skip)
+        at_resume, first_after = {}, {}
         for name, items in arrivals.items():
             before = [p for _, stamp, p in items if stamp < killed_s]
             after = [p for _, stamp, p in items if stamp > restarted_s]
             if before and after:
-                pairs[name] = (before[-1], after[0])
-        if len(pairs) == len(names) or time.monotonic() > deadline:
+                first_after[name] = (before[-1], after[0])
+            if before and name in levels:
+                at_resume[name] = (before[-1], levels[name])
+        if len(first_after) == len(at_resume) == len(names) or time.monotonic() > deadline:
             break
         time.sleep(POLL_S)
-    worst = max(pairs, key=lambda name: abs(pairs[name][1] - pairs[name][0]), default=None)
-    change = abs(pairs[worst][1] - pairs[worst][0]) if worst else float('nan')
-    return 'resumed %d of %d robots, worst |after - before| %.2f %% (%s: %.2f %% -> %.2f %%) (within 1 %%: %s)' % (
-        len(pairs), len(names), 100.0 * change, worst, 100.0 * pairs[worst][0] if worst else float('nan'),
-        100.0 * pairs[worst][1] if worst else float('nan'),
-        'yes' if len(pairs) == len(names) and change < 0.01 else 'no')
+    change, worst = worst_change(at_resume)
+    _, worst_after = worst_change(first_after)
+    ok = len(at_resume) == len(first_after) == len(names) and change < 0.01
+    return ('resumed %d of %d robots (and %d publish again), worst |resumed - last seen before the kill| %s, '
+            'first message after: %s (within 1 %%: %s)' % (len(at_resume), len(names), len(first_after), worst,
+                                                            worst_after, 'yes' if ok else 'no'))
 
 
 def main():
@@ -141,7 +174,7 @@ def main():
             killed = (float(words[1]), int(words[2]), int(words[3]))
             continue
         elif words[0] == 'resumed':
-            answer = resumed(robots, killed, float(words[1]), float(words[2]))
+            answer = resumed(robots, killed, float(words[1]), float(words[2]), words[3], int(words[4]))
         else:
             answer = 'unknown command: %s' % line.strip()
         print(answer, flush=True)
