@@ -65,6 +65,11 @@ def command_line(pid):
         return ''
 
 
+def is_ros_program(line):
+    """The program (or the script an interpreter runs) is one the tool runs in a namespace."""
+    return any(os.path.basename(word).startswith(ROS_WORDS) for word in line.split()[:2])
+
+
 class Watch:
     """While the tool runs: its namespaces' default routes, the processes in them, any ROS process at root."""
 
@@ -89,9 +94,7 @@ class Watch:
                                                                 text=True).stdout.split())
             for pid in descendants(self.tool.pid):
                 line = command_line(pid)
-                if line.startswith('ip '):   # `ip netns exec NS ...` itself, before it enters NS and execs
-                    continue
-                if net_namespace(pid) == self.root and any(word in line for word in ROS_WORDS):
+                if net_namespace(pid) == self.root and is_ros_program(line):
                     self.at_root.append(line)
             time.sleep(0.3)
 
