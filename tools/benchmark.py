@@ -4,6 +4,7 @@ measured numbers beside their targets, no pass/fail).
 
     /usr/bin/python3 tools/benchmark.py            # the model (no ROS needed)
     tools/benchmark.sh                             # the model and the ROS graph (builds, sources devel)
+    tools/benchmark.sh fleet1000 [--hogs=2]        # ROS 1's fleet of 1000 alone (beside 2 busy loops)
 
 Model target: one step < 5 us in CPython (issue 25: two RC pairs, resistance
 tables and the OCV hysteresis within that), so a day of battery life at 10 Hz
@@ -71,8 +72,12 @@ def main():
     if '--graph' in sys.argv[1:]:
         import graph_benchmark   # needs ROS: the devel space sourced
         names = [a for a in sys.argv[1:] if not a.startswith('--')]   # e.g. rates fleet: only those sections
-        rows = graph_benchmark.run([s for s in graph_benchmark.SECTIONS if not names or s.__name__[8:] in names])
-        print_table('The running ROS graph (%d cores)' % os.cpu_count(),
+        hogs = int(next((a.split('=', 1)[1] for a in sys.argv[1:] if a.startswith('--hogs=')), 0))
+        rows = graph_benchmark.run([s for s in graph_benchmark.SECTIONS
+                                    if s.__name__[8:] in names or not names and s not in graph_benchmark.ON_REQUEST],
+                                   hogs)
+        print_table('The running ROS graph (%d cores%s)' % (
+            os.cpu_count(), ', beside %d CPU hogs (busy loops)' % hogs if hogs else ''),
                     ('measurement', 'figure', 'beside it', 'target'), rows)
     rows = [
         ('step, discharging (mode load)', '%.2f us' % per_step_us(Mode.DISCHARGE, 0.8)),
