@@ -9,7 +9,7 @@ import time
 import pytest
 from std_msgs.msg import String
 
-from battery_simulator.ros2 import local_claims, startup
+from battery_simulator.ros2 import battery_claims, local_claims, startup
 from ros2_probe import NodeProcess
 
 
@@ -52,15 +52,15 @@ class SlowDiscovery:
 
 def test_a_claim_that_arrives_after_the_first_listening_still_refuses_the_later_start():
     earlier = {'order': [1, 'host', 123], 'names': ['/dup'], 'node': '/dup/battery_simulator'}
-    world = SlowDiscovery(publishers=2, delay_s=startup.CLAIM_WAIT_S + 1.0, claim=earlier)
-    claim = startup.BatteryClaim(world, ['/dup'], '/dup/battery_simulator')
+    world = SlowDiscovery(publishers=2, delay_s=battery_claims.CLAIM_WAIT_S + 1.0, claim=earlier)
+    claim = battery_claims.BatteryClaim(world, ['/dup'], '/dup/battery_simulator')
     with pytest.raises(startup.StartupError, match='already served by /dup/battery_simulator'):
         claim.wait(world)
 
 
 def test_a_claim_publisher_that_never_delivers_delays_the_start_by_a_bounded_time():
     world = SlowDiscovery(publishers=2, delay_s=1e9, claim=None)   # a publisher that was SIGKILLed: never delivers
-    claim = startup.BatteryClaim(world, ['/alone'], '/alone/battery_simulator')
+    claim = battery_claims.BatteryClaim(world, ['/alone'], '/alone/battery_simulator')
     started = time.monotonic()
     claim.wait(world, wait_s=0.2, most_s=1.0)
     assert 0.9 <= time.monotonic() - started < 3.0
@@ -68,7 +68,7 @@ def test_a_claim_publisher_that_never_delivers_delays_the_start_by_a_bounded_tim
 
 def test_alone_the_claim_listens_only_its_first_time():
     world = SlowDiscovery(publishers=1, delay_s=1e9, claim=None)
-    claim = startup.BatteryClaim(world, ['/alone'], '/alone/battery_simulator')
+    claim = battery_claims.BatteryClaim(world, ['/alone'], '/alone/battery_simulator')
     started = time.monotonic()
     claim.wait(world, wait_s=0.3, most_s=5.0)
     assert time.monotonic() - started < 2.0

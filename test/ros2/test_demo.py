@@ -42,5 +42,6 @@ def test_a_bad_demo_parameter_ends_it_with_one_line():
     demo.stop()   # (if it is still running)
     assert status not in (None, 0), demo.output()
     lines = [line for line in demo.output().splitlines() if 'gauge' in line]
-    assert len(lines) == 1 and 'is invalid: must be ideal or realistic' in lines[0], demo.output()
+    assert len(lines) == 1 and 'is invalid: must be ideal, realistic, impedance_track or modelgauge' in lines[0], \
+        demo.output()
     assert 'Traceback' not in demo.output(), demo.output()

@@ -454,6 +454,10 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
         (_, previous), (_, last) = list(statuses)[-2:]
         stamp = lambda msg: msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         rate = (previous.percentage - last.percentage) / (stamp(last) - stamp(previous))   # per wall second
+        # the reference, measured in this run: how late this machine delivers an update (between stamp and
+        # receipt, against the first message's); on a busy machine the level at the kill is known only that well
+        seen = list(statuses)
+        lateness_s = max(at - stamp(msg) for at, msg in seen) - min(at - stamp(msg) for at, msg in seen)
         assert rate > 0.0, 'not draining'
         killed_at = stamp(last) + 0.9   # just before the next update
         time.sleep(max(0.0, killed_at - time.time()))
@@ -467,7 +471,9 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
         assert again.wait_for_output('resumed from', 20.0), again.output()
         line = next(line for line in again.output().splitlines() if 'resumed from' in line)
         resumed = float(line.split('resumed from')[1].split(':')[1].split('%')[0])
-        assert abs(resumed - level) <= 1.0, 'killed at %.2f %%, resumed at %.1f %%:\n%s' % (level, resumed, line)
+        allowed = 1.0 + 100.0 * rate * lateness_s
+        assert abs(resumed - level) <= allowed, 'killed at %.2f %%, resumed at %.1f %% (allowed %.2f: deliveries up to ' \
+            '%.3f s late here):\n%s' % (level, resumed, allowed, lateness_s, line)
     finally:
         assert again.stop() == 0, again.output()
 
@@ -535,7 +541,7 @@ CONTACT_TOGGLES = 8
 def flood(service, clients):
     """A predict flood from a process of its own (its work is not the measurer's): ``clients`` clients ask
     ``service`` for the biggest plans, again as soon as answered, until SIGINT; 'asking' once they ask, the
-    answers' counts (JSON) at the end."""
+    answers' counts (JSON) at the end, and 'answered' at the first answer."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     rclpy.init()
@@ -557,6 +563,8 @@ def flood(service, clients):
             if future is not None and future.done():
                 response = future.result()
                 counts['ok' if response.success else 'busy' if 'busy' in response.message else 'other'] += 1
+                if sum(counts.values()) == 1:
+                    print('answered', flush=True)
                 future = None
             if future is None:
                 pending[proxy] = proxy.call_async(request)
@@ -600,6 +608,11 @@ def test_a_predict_flood_does_not_starve_a_lone_battery(probe):
         assert ready and flooder.stdout.readline().strip() == 'asking', 'the flood did not start'
         time.sleep(2.0)   # the flood at full strength
         during = contact_delays(probe, '/lone')
+        # every request is answered (a plan or busy) within ANSWER_WITHIN_S: on a busy machine the first answer
+        # may come after the measurement, so wait for it (bounded) before ending the flood
+        ready, _, _ = select.select([flooder.stdout], [], [], 2 * ANSWER_WITHIN_S)
+        assert ready and flooder.stdout.readline().strip() == 'answered', 'no answer to the flood within %.0f s' % (
+            2 * ANSWER_WITHIN_S)
         flooder.send_signal(signal.SIGINT)
         out, _ = flooder.communicate(timeout=40.0)
         counts = json.loads(out.strip().splitlines()[-1])

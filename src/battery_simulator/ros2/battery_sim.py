@@ -36,7 +36,8 @@ from battery_simulator.core.state_file import StateFileError, StateFileKeeper, c
 from battery_simulator.ros2 import services
 from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer, mode_refusal
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (BatteryClaim, StartupError, declare_settings, descriptor, ending_quietly,
+from battery_simulator.ros2.battery_claims import BatteryClaim
+from battery_simulator.ros2.startup import (StartupError, declare_settings, descriptor, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, own_node,
                                             parameter_name, run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher

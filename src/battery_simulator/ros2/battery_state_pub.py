@@ -24,7 +24,8 @@ from battery_simulator.msg import BatterySimState
 from battery_simulator.core import topics
 from battery_simulator.ros2.battery_sim import OneBattery, finish, publish_diagnostics, read_publisher_settings
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (BatteryClaim, StartupError, claimed_by, ending_quietly,
+from battery_simulator.ros2.battery_claims import BatteryClaim, claimed_by
+from battery_simulator.ros2.startup import (StartupError, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, parameter_name,
                                             run, steady_clock)
 from battery_simulator.ros2.messages import ReceivedState

@@ -37,7 +37,8 @@ from battery_simulator.ros2.fake_base import FakeBase
 from battery_simulator.ros2.patrol_and_dock import ROS2_DEFAULTS, PatrolAndDock
 from battery_simulator.ros2.robot_node import read_settings
 from battery_simulator.ros2.sim_clock import SimClock
-from battery_simulator.ros2.startup import BatteryClaim, StartupError, ending_quietly, exit_on_startup_error, init, run
+from battery_simulator.ros2.battery_claims import BatteryClaim
+from battery_simulator.ros2.startup import StartupError, ending_quietly, exit_on_startup_error, init, run
 
 GAUGES = GAUGE_CONFIGS
 #: a mobile robot's cruising speed at most: the patrol, the dock's approach and its contact assume it

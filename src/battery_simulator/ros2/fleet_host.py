@@ -45,7 +45,8 @@ from battery_simulator.ros2.battery_sim import (STATUS_NODE, STARTUP_SETTINGS, T
                                                  declare_mode, diagnostics_publisher, make_battery,
                                                  read_publisher_settings)
 from battery_simulator.ros2.log import NodeLog
-from battery_simulator.ros2.startup import (BatteryClaim, StartupError, child_namespace, declare_settings, ending_quietly,
+from battery_simulator.ros2.battery_claims import BatteryClaim
+from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, own_node,
                                             parameter_name, run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
