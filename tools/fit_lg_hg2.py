@@ -334,7 +334,7 @@ def with_top(params, moves_v, scale=1.0, rounded_as_written=False):
 
 def charge_end(params, rest, run, dt_s=5.0):
     """(SOC at Full, CC seconds, CV seconds) of the model's own charge against a measured one."""
-    from battery_simulator.core.battery_model import Mode, Status
+    from battery_simulator.core.battery_states import Mode, Status
     from battery_simulator.core.measured_data import OcvCurve
     from battery_simulator.core.pack import make_model
     test = replace(params, ambient_temperature_c=rest.temperature_c, charge_current_a=run[0].current_a,

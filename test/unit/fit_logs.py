@@ -9,7 +9,8 @@ from dataclasses import dataclass
 
 import numpy
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.parameters import from_mapping
 
 #: a robot unlike any preset: 5S3P of 3.2 Ah cells, other resistances, loads and motion

@@ -5,7 +5,8 @@ from pathlib import Path
 
 import yaml
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.parameters import BatteryParameters, from_mapping
 
 DATA = Path(__file__).resolve().parents[1] / 'data' / 'single_rc_model'

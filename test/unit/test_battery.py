@@ -6,7 +6,7 @@ import pytest
 
 from battery_simulator.core.battery import (LIVE_PARAMETERS, UNREADABLE, Battery, BatteryError, Goal, GoalEnd,
                                             parse_mode)
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.names import FAULTS, SupplyStatus
 from battery_simulator.core.parameters import preset
 

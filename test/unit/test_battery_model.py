@@ -6,7 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from battery_simulator.core.battery_model import BatteryModel, Health, Mode, OcvCurve, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Health, Mode, Status
+from battery_simulator.core.cell_tables import OcvCurve
 from battery_simulator.core.measured_data import time_to_full
 from battery_simulator.core.parameters import preset
 

@@ -5,7 +5,8 @@ import pytest
 
 genpy = pytest.importorskip('genpy')
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.parameters import preset
 
 battery_state = pytest.importorskip('battery_simulator.ros1.messages',

@@ -5,7 +5,7 @@ import pickle
 
 import pytest
 
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.learning_gauge import CAPACITY_LEARNED, END_OF_CHARGE, OCV_REST
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import (ParameterError, from_mapping, gauge_preset, gauge_preset_names,

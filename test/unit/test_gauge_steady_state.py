@@ -6,7 +6,7 @@ current still flows (before: 100 % about 760 s before Full, at 0.57 A, four time
 """
 import pytest
 
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.gauge import HOLD_BEFORE_FULL
 from battery_simulator.core.parameters import default_config_path, load_yaml

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import pytest
 
 from battery_simulator.core.battery import Battery
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.diagnostics import battery_values
 from battery_simulator.core.names import FAULTS
 from battery_simulator.core.pack import make_model

@@ -4,7 +4,9 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, OcvCurve, Status
+from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.cell_tables import OcvCurve
 from battery_simulator.core.parameters import BatteryParameters, preset
 
 #: the default cell with temperature-independent resistances (linear OCV 2.8..4.2 V)

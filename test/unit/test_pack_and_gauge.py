@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.pack import GroupedPack, group_factors, make_model
 from battery_simulator.core.parameters import ParameterError, from_mapping, preset
 

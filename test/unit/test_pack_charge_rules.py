@@ -13,7 +13,7 @@ import math
 
 import pytest
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.pack import GroupedPack, make_model
 from battery_simulator.core.parameters import from_mapping
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameters import preset, preset_names
 from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, main, read_profile, replay

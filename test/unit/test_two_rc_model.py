@@ -4,7 +4,9 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, Mode, ResistanceTable, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.cell_tables import ResistanceTable
 from battery_simulator.core.parameters import BatteryParameters, ParameterError
 
 #: the default cell (linear OCV 2.8..4.2 V) without Arrhenius, with every issue-25 feature on

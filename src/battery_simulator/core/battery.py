@@ -26,7 +26,7 @@ import time
 from collections import namedtuple
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.gauge import CAPACITY_LEARNED, LOGGED_CORRECTION
 from battery_simulator.core.names import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
                                           SupplyStatus)

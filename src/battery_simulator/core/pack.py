@@ -36,7 +36,8 @@ import math
 import random
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.parameters import SPREAD_SIGMAS
 
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from itertools import repeat
 from typing import NamedTuple
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.parameters import MAX_SPEED_MPS, MAX_TURN_RADPS, is_number, load_power_error
 
 #: the longest plan, s (7 days)

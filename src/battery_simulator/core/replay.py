@@ -29,7 +29,7 @@ import os
 import sys
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.command_line import OneLineParser
 from battery_simulator.core.gauge import EVENT_KINDS
 from battery_simulator.core.pack import make_model

@@ -49,7 +49,7 @@ from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE,
                                             BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage)
 from battery_simulator.core.battery_log import resume_battery, say_ready
 from battery_simulator.core import topics
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros1.cached_param import CachedParam
 from battery_simulator.ros1.log import RobotLog

@@ -20,7 +20,7 @@ from std_msgs.msg import Bool
 from battery_simulator.action import BatterySim
 from battery_simulator.core import topics
 from battery_simulator.core.battery import BatteryError, Goal, GoalEnd, parse_mode
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros2.messages import SimState
 from battery_simulator.ros2.qos import LATCHED_QOS
