@@ -8,7 +8,7 @@ from battery_simulator.core.battery import (LIVE_PARAMETERS, UNREADABLE, Battery
                                             parse_mode)
 from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.names import FAULTS, SupplyStatus
-from battery_simulator.core.parameters import preset
+from battery_simulator.core.config_files import preset
 
 NAN = math.nan
 

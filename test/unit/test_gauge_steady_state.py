@@ -9,7 +9,7 @@ import pytest
 from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.gauge import HOLD_BEFORE_FULL
-from battery_simulator.core.parameters import default_config_path, load_yaml
+from battery_simulator.core.config_files import default_config_path, load_yaml
 
 REALISTIC = default_config_path().parent / 'battery_realistic.yaml'
 LOW = 25.0          # demo.launch's low_percentage, what the robot reads

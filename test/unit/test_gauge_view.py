@@ -11,7 +11,7 @@ from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.diagnostics import battery_values
 from battery_simulator.core.names import FAULTS
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.parameters import from_mapping, preset, preset_names
+from battery_simulator.core.config_files import from_mapping, preset, preset_names
 
 AGED = 'lg_hg2_7s4p_aged'
 

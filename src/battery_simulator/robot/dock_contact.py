@@ -11,7 +11,7 @@ the robot came since it entered the radius.
 """
 import math
 
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.core.settings import Setting
 
 REPEAT_PERIOD_S = 0.5   # ROS time between repeats of the contact (at least once a second)

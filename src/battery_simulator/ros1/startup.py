@@ -8,7 +8,7 @@ import time
 import rosgraph
 import rospy
 
-from battery_simulator.core.parameters import is_number, number_from_text
+from battery_simulator.core.parameter_rules import is_number, number_from_text
 from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
 

@@ -19,7 +19,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.msg import BatterySimState
 from battery_simulator.core import topics
 from battery_simulator.ros2.battery_sim import OneBattery, finish, publish_diagnostics, read_publisher_settings

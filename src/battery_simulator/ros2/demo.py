@@ -26,7 +26,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from battery_simulator.core.parameters import default_config_path, is_number
+from battery_simulator.core.config_files import default_config_path
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.core.settings import Setting
 from battery_simulator.robot import base, clock as clock_rule, dock_contact, patrol
 from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s

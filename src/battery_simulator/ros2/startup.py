@@ -28,7 +28,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from std_msgs.msg import String
 
-from battery_simulator.core.parameters import number_from_text
+from battery_simulator.core.parameter_rules import number_from_text
 from battery_simulator.core.settings import SettingError, check_setting
 from battery_simulator.ros2 import local_claims
 from battery_simulator.ros2.rcl_args import rcl_problem

@@ -12,7 +12,7 @@ import functools
 import re
 
 from battery_simulator.core import names
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.core.settings import PUBLISHER_SETTINGS
 
 BATTERY_TYPE = 'sensor_msgs/BatteryState'

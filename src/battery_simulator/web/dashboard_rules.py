@@ -7,7 +7,7 @@ graph, the services the controls call and the lines a node says.
 import errno
 import math
 
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.core.settings import Setting
 from battery_simulator.core import topics
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover
