@@ -10,7 +10,8 @@ import math
 from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.core.settings import Setting
 from battery_simulator.core import topics
-from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover
+from battery_simulator.web.dashboard_model import BATTERY_FIELDS
+from battery_simulator.web.topic_discovery import discover
 
 NODE_NAME = 'battery_dashboard'
 #: a control's service not there within this: unreachable (502); the web app's CALL_TIMEOUT_S bounds the call

@@ -115,7 +115,7 @@ function overviewPage() {
   }
 
   // the cards in the server's natural order (robot2 before robot10): each battery's 'order' is a key whose
-  // plain string order is that order (dashboard_model.natural_key)
+  // plain string order is that order (dashboard_texts.natural_key)
   function place(order, card) {
     let next = null;
     for (const entry of cards.values()) {
