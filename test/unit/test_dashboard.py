@@ -583,16 +583,16 @@ def test_a_silent_but_advertised_topic_stays_away_once_dropped():
 
 
 def test_the_page_takes_its_texts_and_limits_from_the_core():
-    """The health texts are the diagnostics' (core/names.py), set_state's limits the simulator's
-    (core/battery_model.py), the low / critical defaults battery_state_pub's (core/settings.py)."""
-    from battery_simulator.core import names
+    """The health texts are the diagnostics' (core/status_codes.py), set_state's limits the simulator's
+    (core/battery_model.py), the low / critical defaults battery_state_pub's (core/node_settings.py)."""
+    from battery_simulator.core import status_codes
     from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, SET_STATE_TEMPERATURE_C
-    from battery_simulator.core.settings import PUBLISHER_SETTINGS
+    from battery_simulator.core.node_settings import PUBLISHER_SETTINGS
     dashboard = DashboardModel(history_s=600)
-    for code, text in names.HEALTH_TEXT.items():
+    for code, text in status_codes.HEALTH_TEXT.items():
         dashboard.on_battery(TOPIC, battery(health=code), 0.0)
         shown = dashboard.snapshot(0.1)[0]['fields']['health']
-        assert shown == ('-' if code == names.SupplyHealth.UNKNOWN else text), (code, shown)
+        assert shown == ('-' if code == status_codes.SupplyHealth.UNKNOWN else text), (code, shown)
     assert app.SET_STATE_RANGES['state_of_health'] == (MIN_STATE_OF_HEALTH, 1.0)
     assert app.SET_STATE_RANGES['temperature_c'] == SET_STATE_TEMPERATURE_C
     with pytest.raises(ValueError, match=r'\[0\.01, 1\]'):

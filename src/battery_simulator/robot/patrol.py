@@ -10,7 +10,7 @@ tell it how the goal ended, log and publish each phase.
 import math
 
 from battery_simulator.core.parameter_rules import is_number
-from battery_simulator.core.settings import Setting
+from battery_simulator.core.node_settings import Setting
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 PHASES = (PATROL, GO_TO_DOCK, CHARGING, UNDOCK)

@@ -34,7 +34,7 @@ def checked_param(name, default, check, allowed):
 
 
 def read_private_settings(settings):
-    """{name: value} of core/settings.py Settings read as private parameters (``~name``), checked."""
+    """{name: value} of core/node_settings.py Settings read as private parameters (``~name``), checked."""
     return {setting.name: checked_param('~' + setting.name, setting.default, setting.check, setting.allowed)
             for setting in settings}
 

@@ -9,9 +9,9 @@ web/dashboard_texts.py (the text of each field); here stale, low / critical, tim
 import bisect
 import collections
 
-from battery_simulator.core import names
+from battery_simulator.core import status_codes
 from battery_simulator.core.parameter_rules import is_number
-from battery_simulator.core.settings import PUBLISHER_SETTINGS
+from battery_simulator.core.node_settings import PUBLISHER_SETTINGS
 from battery_simulator.web.dashboard_texts import (SIM_CHARGING_STATE, SUPPLY_HEALTH, SUPPLY_STATUS, duration_text,
                                                    in_range, json_number, natural_key, number_text, percentage_text)
 from battery_simulator.web.topic_discovery import fleet_battery_topic
@@ -27,7 +27,7 @@ PERIOD_SAMPLES = 8       # arrival intervals the period estimate takes the media
 BATTERY_FIELDS = ('percentage', 'voltage', 'current', 'temperature', 'charge', 'capacity', 'design_capacity')
 CHART_FIELDS = ('percentage', 'voltage', 'current', 'temperature')
 #: the faults a simulated battery knows (the page gets them in its snapshot)
-FAULTS = tuple(sorted(names.FAULTS))
+FAULTS = tuple(sorted(status_codes.FAULTS))
 
 
 # -- rules -----------------------------------------------------------------------

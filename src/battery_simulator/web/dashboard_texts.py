@@ -3,16 +3,16 @@ page shows it (units, digits, out of range, durations), in the order a person so
 import functools
 import re
 
-from battery_simulator.core import names
+from battery_simulator.core import status_codes
 from battery_simulator.core.parameter_rules import is_number
 
 #: sensor_msgs/BatteryState.power_supply_status -> the page's status
-SUPPLY_STATUS = names.SUPPLY_STATUS_TEXT
+SUPPLY_STATUS = status_codes.SUPPLY_STATUS_TEXT
 #: BatterySimState.charging_state -> the page's status (the simulator knows Empty): the page writes
 #: "Not charging" as a sentence, the simulator's texts are the diagnostics' "Not Charging"
-SIM_CHARGING_STATE = {state: state.capitalize() for state in names.CHARGING_STATES}
+SIM_CHARGING_STATE = {state: state.capitalize() for state in status_codes.CHARGING_STATES}
 #: sensor_msgs/BatteryState.power_supply_health: the diagnostics' texts; unknown is '-' as every unknown field
-SUPPLY_HEALTH = {code: text for code, text in names.HEALTH_TEXT.items() if code != names.SupplyHealth.UNKNOWN}
+SUPPLY_HEALTH = {code: text for code, text in status_codes.HEALTH_TEXT.items() if code != status_codes.SupplyHealth.UNKNOWN}
 
 #: beyond this magnitude a number is shown in scientific notation (3 significant digits): a driver's
 #: 3.4e38 would otherwise be a 40-digit number overflowing the card
