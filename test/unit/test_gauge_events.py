@@ -8,9 +8,9 @@ import pytest
 
 from battery_simulator.core.battery import Battery
 from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import from_mapping
 from battery_simulator.core.diagnostics import battery_values
 from battery_simulator.core.status_codes import DIAGNOSTIC_KEYS, SupplyStatus
-from battery_simulator.core.config_files import from_mapping
 
 ONE_C = 2.781 * 1
 

@@ -6,10 +6,10 @@ import pickle
 import pytest
 
 from battery_simulator.core.battery_states import Mode, Status
-from battery_simulator.core.learning_gauge import CAPACITY_LEARNED, END_OF_CHARGE, OCV_REST
-from battery_simulator.core.pack import make_model
 from battery_simulator.core.config_files import (from_mapping, gauge_preset, gauge_preset_names, preset,
                                                  preset_directory, preset_names, with_gauge_config)
+from battery_simulator.core.learning_gauge import CAPACITY_LEARNED, END_OF_CHARGE, OCV_REST
+from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameter_rules import ParameterError
 
 PACK = 'lg_hg2_3s1p'

@@ -7,8 +7,8 @@ import pytest
 
 from battery_simulator.core.battery_model import BatteryModel
 from battery_simulator.core.battery_states import CutOff, Health, Mode, Status
-from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.core.config_files import preset
+from battery_simulator.core.level_alarm import LevelAlarm
 from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.core.time_base import TimeBase
 

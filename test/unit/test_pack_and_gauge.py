@@ -5,8 +5,8 @@ import json
 import pytest
 
 from battery_simulator.core.battery_states import CutOff, Mode, Status
-from battery_simulator.core.pack import GroupedPack, group_factors, make_model
 from battery_simulator.core.config_files import from_mapping, preset
+from battery_simulator.core.pack import GroupedPack, group_factors, make_model
 from battery_simulator.core.parameter_rules import ParameterError
 
 import pack_scenarios

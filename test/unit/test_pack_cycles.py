@@ -5,8 +5,8 @@ import pytest
 
 from battery_simulator.core.battery_model import BatteryModel
 from battery_simulator.core.battery_states import CutOff, Mode, Status
-from battery_simulator.core.pack import GroupedPack, group_factors, make_model
 from battery_simulator.core.config_files import from_mapping, preset
+from battery_simulator.core.pack import GroupedPack, group_factors, make_model
 from battery_simulator.core.parameter_rules import ParameterError
 
 PACK = 'lg_hg2_7s4p'   # 7S4P HG2, 11.124 Ah

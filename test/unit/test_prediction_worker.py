@@ -18,10 +18,10 @@ from array import array
 import pytest
 
 from battery_simulator.core import prediction_worker
-from battery_simulator.core.prediction_worker import Busy, PredictionPool, WorkerFailed
 from battery_simulator.core.battery_model import BatteryModel
 from battery_simulator.core.config_files import preset
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
+from battery_simulator.core.prediction_worker import Busy, PredictionPool, WorkerFailed
 
 NAN = math.nan
 PACK = preset('lg_hg2_3s1p')

@@ -5,9 +5,9 @@ from dataclasses import replace
 import pytest
 
 from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_parameters import BatteryParameters
 from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.cell_tables import ResistanceTable
-from battery_simulator.core.battery_parameters import BatteryParameters
 from battery_simulator.core.parameter_rules import ParameterError
 
 #: the default cell (linear OCV 2.8..4.2 V) without Arrhenius, with every issue-25 feature on

@@ -23,10 +23,10 @@ charge current and the protection temperature.
 """
 import math
 
+from battery_simulator.core.battery_parameters import BatteryParameters
 from battery_simulator.core.battery_states import CutOff, Health, Mode, Snapshot, Status
 from battery_simulator.core.cell_tables import OcvCurve, ResistanceTable
 from battery_simulator.core.gauge_models import make_gauge
-from battery_simulator.core.battery_parameters import BatteryParameters
 from battery_simulator.core.parameter_rules import is_number
 
 _KELVIN = 273.15

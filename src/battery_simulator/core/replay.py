@@ -31,9 +31,9 @@ from dataclasses import replace
 
 from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.command_line import OneLineParser
+from battery_simulator.core.config_files import DEFAULT_PRESET, load_yaml, preset, preset_names
 from battery_simulator.core.gauge import EVENT_KINDS
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.config_files import DEFAULT_PRESET, load_yaml, preset, preset_names
 from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.core.prediction import predict
 

@@ -45,11 +45,11 @@ import actionlib
 import rospy
 from std_msgs.msg import Bool, UInt64
 
+from battery_simulator.core import ros_names
 from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery,
                                             BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage)
-from battery_simulator.core.resume_rule import resume_battery, say_ready
-from battery_simulator.core import ros_names
 from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros1.cached_param import CachedParam
 from battery_simulator.ros1.log import RobotLog

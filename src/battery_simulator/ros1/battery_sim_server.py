@@ -8,8 +8,8 @@
 import rospy
 
 from battery_simulator.core.config_files import load_yaml, with_gauge_config
-from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.core.node_settings import BATTERY_SETTINGS, GAUGE_CONFIG
+from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.ros1.action_server import BatterySimServer
 from battery_simulator.ros1.saved_state import StateStore
 from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, check_state_file_param,

@@ -36,8 +36,8 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core import ros_names
-from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.node_settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
+from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros1.log import RobotLog

@@ -28,8 +28,8 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from std_msgs.msg import String
 
-from battery_simulator.core.parameter_rules import number_from_text
 from battery_simulator.core.node_settings import SettingError, check_setting
+from battery_simulator.core.parameter_rules import number_from_text
 from battery_simulator.ros2 import local_claims
 from battery_simulator.ros2.rcl_args import rcl_problem
 

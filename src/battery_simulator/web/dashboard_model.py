@@ -10,8 +10,8 @@ import bisect
 import collections
 
 from battery_simulator.core import status_codes
-from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.core.node_settings import PUBLISHER_SETTINGS
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.web.dashboard_texts import (SIM_CHARGING_STATE, SUPPLY_HEALTH, SUPPLY_STATUS, duration_text,
                                                    in_range, json_number, natural_key, number_text, percentage_text)
 from battery_simulator.web.topic_discovery import fleet_battery_topic

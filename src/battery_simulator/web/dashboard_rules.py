@@ -7,9 +7,9 @@ graph, the services the controls call and the lines a node says.
 import errno
 import math
 
-from battery_simulator.core.parameter_rules import is_number
-from battery_simulator.core.node_settings import Setting
 from battery_simulator.core import ros_names
+from battery_simulator.core.node_settings import Setting
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS
 from battery_simulator.web.topic_discovery import discover
 

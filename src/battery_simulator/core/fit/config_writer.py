@@ -5,8 +5,8 @@ import os
 
 import yaml
 
-from battery_simulator.core.fit import FitError
 from battery_simulator.core.config_files import from_mapping
+from battery_simulator.core.fit import FitError
 from battery_simulator.core.parameter_rules import ParameterError
 
 #: the keys written, in this order (the ones the fit sets)
