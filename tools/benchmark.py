@@ -21,9 +21,9 @@ if importlib.util.find_spec('battery_simulator') is None:   # not sourced: the c
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from battery_simulator.core.battery_model import Mode  # noqa: E402
+from battery_simulator.core.battery_states import Mode  # noqa: E402
+from battery_simulator.core.config_files import preset  # noqa: E402
 from battery_simulator.core.pack import make_model  # noqa: E402
-from battery_simulator.core.parameters import preset  # noqa: E402
 from battery_simulator.core.replay import replay  # noqa: E402
 
 STEPS = 200_000

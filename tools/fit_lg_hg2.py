@@ -48,10 +48,11 @@ from scipy.optimize import least_squares
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'src'))
 
+from battery_simulator.core.battery_parameters import BatteryParameters  # noqa: E402
+from battery_simulator.core.config_files import preset  # noqa: E402
 from battery_simulator.core.measured_data import (charge_runs, discharge_rmse,  # noqa: E402
                                                   load_cycler_csv, measured_charge_phases, rmse, simulate,
                                                   simulated_charge)
-from battery_simulator.core.parameters import BatteryParameters, preset  # noqa: E402
 
 DATA = ROOT / 'test' / 'data' / 'lg_hg2'
 SOC_GRID = (0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1, 0.125, 0.15, 0.2,
@@ -334,7 +335,7 @@ def with_top(params, moves_v, scale=1.0, rounded_as_written=False):
 
 def charge_end(params, rest, run, dt_s=5.0):
     """(SOC at Full, CC seconds, CV seconds) of the model's own charge against a measured one."""
-    from battery_simulator.core.battery_model import Mode, Status
+    from battery_simulator.core.battery_states import Mode, Status
     from battery_simulator.core.measured_data import OcvCurve
     from battery_simulator.core.pack import make_model
     test = replace(params, ambient_temperature_c=rest.temperature_c, charge_current_a=run[0].current_a,

@@ -24,9 +24,9 @@ if importlib.util.find_spec('battery_simulator') is None:   # not sourced: the c
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src'))
 
 from battery_simulator.core.battery import Battery  # noqa: E402
-from battery_simulator.core.battery_model import Mode, Status  # noqa: E402
+from battery_simulator.core.battery_states import Mode, Status  # noqa: E402
+from battery_simulator.core.config_files import from_mapping  # noqa: E402
 from battery_simulator.core.pack import make_model  # noqa: E402
-from battery_simulator.core.parameters import from_mapping  # noqa: E402
 
 GAUGES = {'ideal': {'model': 'ideal'},
           'counter': {'model': 'coulomb_counter', 'current_offset_a': 0.01, 'capacity_error': 0.05},

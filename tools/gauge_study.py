@@ -27,9 +27,9 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'src'))
 
-from battery_simulator.core.battery_model import Mode, Status  # noqa: E402
+from battery_simulator.core.battery_states import Mode, Status  # noqa: E402
+from battery_simulator.core.config_files import from_mapping, preset  # noqa: E402
 from battery_simulator.core.pack import make_model  # noqa: E402
-from battery_simulator.core.parameters import from_mapping, preset  # noqa: E402
 
 PACK = 'lg_hg2_3s1p'
 GAUGES = ('ideal', 'counter', 'learning')

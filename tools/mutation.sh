@@ -23,7 +23,7 @@ while [ $# -gt 0 ]; do
   if [ "$1" = "--" ]; then shift; tests=("$@"); break; fi
   modules+=("$1"); shift
 done
-[ ${#modules[@]} -gt 0 ] || modules=(battery_model pack gauge parameters replay)
+[ ${#modules[@]} -gt 0 ] || modules=(battery_model pack gauge parameter_rules replay)
 [ ${#tests[@]} -gt 0 ] || tests=(test/unit/)
 paths=()
 for module in "${modules[@]}"; do

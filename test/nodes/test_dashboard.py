@@ -24,7 +24,7 @@ from std_msgs.msg import Header
 
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import SetState
-from battery_simulator.web.dashboard_model import natural_key
+from battery_simulator.web.dashboard_texts import natural_key
 from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(5)]

@@ -8,7 +8,7 @@ import rospy
 import rostest
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.core.parameters import preset, preset_names
+from battery_simulator.core.config_files import preset, preset_names
 from rostest_helpers import Recorder, wait_for
 
 LEVELS = (0, 50, 100)

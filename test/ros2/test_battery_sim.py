@@ -18,7 +18,7 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
 from battery_simulator.action import BatterySim
-from battery_simulator.core.names import DIAGNOSTIC_KEYS, FAULTS
+from battery_simulator.core.status_codes import DIAGNOSTIC_KEYS, FAULTS
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
 from ros2_probe import LATCHED, NodeProcess, Probe, udp_sockets

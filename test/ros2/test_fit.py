@@ -11,7 +11,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'unit'))
 
 import fit_logs  # noqa: E402
-from battery_simulator.core.parameters import load_yaml  # noqa: E402
+from battery_simulator.core.config_files import load_yaml  # noqa: E402
 
 
 @pytest.fixture(scope='module')

@@ -6,7 +6,7 @@ import pytest
 from rclpy.action.server import GoalResponse
 from rclpy.node import Node
 
-from battery_simulator.core.parameters import default_config_path, load_yaml
+from battery_simulator.core.config_files import default_config_path, load_yaml
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2.battery_sim import make_battery
 from battery_simulator.ros2.log import NodeLog

@@ -9,8 +9,9 @@ from dataclasses import dataclass
 
 import numpy
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
-from battery_simulator.core.parameters import from_mapping
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.config_files import from_mapping
 
 #: a robot unlike any preset: 5S3P of 3.2 Ah cells, other resistances, loads and motion
 ROBOT = {'preset': 'lg_hg2_cell', 'name': 'test_robot', 'cells_series': 5, 'cells_parallel': 3,
@@ -302,7 +303,7 @@ def replayed_voltage(config_path, log_csv, soc):
     """(time, logged voltage, replayed voltage, replayed temperature, logged temperature or None) of a CSV log
     replayed with ``config_path`` from ``soc`` through battery_replay's function (the log's own current)."""
     from battery_simulator.core.fit.log_reader import read_log
-    from battery_simulator.core.parameters import load_yaml
+    from battery_simulator.core.config_files import load_yaml
     from battery_simulator.core.replay import replay
     raw = read_log(log_csv)
     t = numpy.asarray(raw.time_s, dtype=float)
@@ -323,7 +324,7 @@ def fit_and_score(log_csv, directory, cells, holdout=0.4, extra=(), predict=()):
     import io
     import re
     from battery_simulator.cli import fit as fit_cli
-    from battery_simulator.core.parameters import load_yaml
+    from battery_simulator.core.config_files import load_yaml
     output = os.path.join(directory, os.path.basename(str(log_csv)) + '.yaml')
     if os.path.exists(output):
         os.remove(output)
@@ -350,7 +351,7 @@ def predicted_rmse(config_path, log_csv):
     """RMSE (pack V) of ``log_csv`` replayed whole with the config, from the SOC the logged percentage or
     (without one) the first voltage's OCV gives."""
     from battery_simulator.core.fit.log_reader import read_log
-    from battery_simulator.core.parameters import load_yaml
+    from battery_simulator.core.config_files import load_yaml
     params = load_yaml(config_path)
     raw = read_log(log_csv)
     pct = numpy.asarray(raw.percentage, dtype=float)
@@ -369,7 +370,7 @@ def preset_rmse(log_csv, preset_name, cells_series, cells_parallel, holdout=0.4)
     import tempfile
     import yaml
     from battery_simulator.core.fit.log_reader import read_log
-    from battery_simulator.core.parameters import preset
+    from battery_simulator.core.config_files import preset
     params = preset(preset_name)
     raw = read_log(log_csv)
     pct = numpy.asarray(raw.percentage, dtype=float)

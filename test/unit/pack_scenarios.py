@@ -8,9 +8,9 @@ from dataclasses import replace
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'src'))
 
-from battery_simulator.core.battery_model import Mode  # noqa: E402
+from battery_simulator.core.battery_states import Mode  # noqa: E402
+from battery_simulator.core.config_files import preset  # noqa: E402
 from battery_simulator.core.pack import make_model  # noqa: E402
-from battery_simulator.core.parameters import preset  # noqa: E402
 
 FIGURES = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'data', 'lumped_model_figures.json')
 

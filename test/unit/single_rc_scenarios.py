@@ -5,8 +5,10 @@ from pathlib import Path
 
 import yaml
 
-from battery_simulator.core.battery_model import BatteryModel, Mode
-from battery_simulator.core.parameters import BatteryParameters, from_mapping
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_parameters import BatteryParameters
+from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.config_files import from_mapping
 
 DATA = Path(__file__).resolve().parents[1] / 'data' / 'single_rc_model'
 #: every KEEP-th row of a run is saved, and its last

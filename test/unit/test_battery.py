@@ -6,9 +6,9 @@ import pytest
 
 from battery_simulator.core.battery import (LIVE_PARAMETERS, UNREADABLE, Battery, BatteryError, Goal, GoalEnd,
                                             parse_mode)
-from battery_simulator.core.battery_model import Mode, Status
-from battery_simulator.core.names import FAULTS, SupplyStatus
-from battery_simulator.core.parameters import preset
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import preset
+from battery_simulator.core.status_codes import FAULTS, SupplyStatus
 
 NAN = math.nan
 

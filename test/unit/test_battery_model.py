@@ -6,9 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from battery_simulator.core.battery_model import BatteryModel, Health, Mode, OcvCurve, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Health, Mode, Status
+from battery_simulator.core.cell_tables import OcvCurve
+from battery_simulator.core.config_files import preset
 from battery_simulator.core.measured_data import time_to_full
-from battery_simulator.core.parameters import preset
 
 CELL = preset('lg_hg2_cell')
 PACK = preset('lg_hg2_3s1p')

@@ -8,6 +8,8 @@ import time
 import pytest
 
 from battery_simulator.web import dashboard_model as model
+from battery_simulator.web import dashboard_texts as texts
+from battery_simulator.web import topic_discovery as discovery
 from battery_simulator.web.dashboard_model import DashboardModel
 
 tornado_testing = pytest.importorskip('tornado.testing')
@@ -27,26 +29,26 @@ def battery(percentage=0.632, voltage=11.5, current=-1.5, temperature=25.0, char
 # -- discovery ---------------------------------------------------------------------
 
 PUBLISHED = [
-    ('/robot0/battery_status', model.BATTERY_TYPE),
-    ('/robot0/battery_low', model.BOOL_TYPE),
-    ('/robot0/battery_critical', model.BOOL_TYPE),
-    ('/robot0/battery_simulator/state', model.SIM_STATE_TYPE),
-    ('/robot1/battery_status', model.BATTERY_TYPE),
+    ('/robot0/battery_status', discovery.BATTERY_TYPE),
+    ('/robot0/battery_low', discovery.BOOL_TYPE),
+    ('/robot0/battery_critical', discovery.BOOL_TYPE),
+    ('/robot0/battery_simulator/state', discovery.SIM_STATE_TYPE),
+    ('/robot1/battery_status', discovery.BATTERY_TYPE),
     ('/robot1/battery_low', 'std_msgs/String'),          # not a Bool: not its low level
-    ('/real/bms', model.BATTERY_TYPE),                   # a driver's own name, alone in its namespace
-    ('/real/battery_low', model.BOOL_TYPE),
-    ('/arm/left', model.BATTERY_TYPE),                   # two packs in one namespace: extras belong to neither
-    ('/arm/right', model.BATTERY_TYPE),
-    ('/arm/battery_low', model.BOOL_TYPE),
-    ('/battery_fleet/states', model.FLEET_STATE_TYPE),
-    ('/site/battery_fleet_1/states', model.FLEET_STATE_TYPE),
+    ('/real/bms', discovery.BATTERY_TYPE),                   # a driver's own name, alone in its namespace
+    ('/real/battery_low', discovery.BOOL_TYPE),
+    ('/arm/left', discovery.BATTERY_TYPE),                   # two packs in one namespace: extras belong to neither
+    ('/arm/right', discovery.BATTERY_TYPE),
+    ('/arm/battery_low', discovery.BOOL_TYPE),
+    ('/battery_fleet/states', discovery.FLEET_STATE_TYPE),
+    ('/site/battery_fleet_1/states', discovery.FLEET_STATE_TYPE),
     ('/robot0/odom', 'nav_msgs/Odometry'),
     ('/rosout', 'rosgraph_msgs/Log'),
 ]
 
 
 def test_discovery_finds_every_battery_state_topic_and_the_extras_beside_it():
-    batteries, fleets = model.discover(PUBLISHED)
+    batteries, fleets = discovery.discover(PUBLISHED)
     assert sorted(batteries) == ['/arm/left', '/arm/right', '/real/bms', '/robot0/battery_status',
                                  '/robot1/battery_status']
     assert batteries['/robot0/battery_status'] == {'low': '/robot0/battery_low', 'critical': '/robot0/battery_critical',
@@ -55,24 +57,24 @@ def test_discovery_finds_every_battery_state_topic_and_the_extras_beside_it():
     assert batteries['/real/bms'] == {'low': '/real/battery_low'}
     assert batteries['/arm/left'] == batteries['/arm/right'] == {}
     assert fleets == {'/battery_fleet/states': '/', '/site/battery_fleet_1/states': '/site/'}
-    assert model.fleet_battery_topic('/site/', 'robot7') == '/site/robot7/battery_status'
-    assert model.discover([]) == ({}, {})
+    assert discovery.fleet_battery_topic('/site/', 'robot7') == '/site/robot7/battery_status'
+    assert discovery.discover([]) == ({}, {})
 
 
 def test_a_battery_state_twin_of_battery_status_is_one_battery():
     """battery_state_pub publishes battery_state beside battery_status (opennav_docking's name): shown once; a
     battery_state alone (another driver) is a battery of its own."""
-    published = [('/robot0/battery_status', model.BATTERY_TYPE), ('/robot0/battery_state', model.BATTERY_TYPE),
-                 ('/other/battery_state', model.BATTERY_TYPE), ('/robot0/battery_low', model.BOOL_TYPE)]
-    batteries, _ = model.discover(published)
+    published = [('/robot0/battery_status', discovery.BATTERY_TYPE), ('/robot0/battery_state', discovery.BATTERY_TYPE),
+                 ('/other/battery_state', discovery.BATTERY_TYPE), ('/robot0/battery_low', discovery.BOOL_TYPE)]
+    batteries, _ = discovery.discover(published)
     assert sorted(batteries) == ['/other/battery_state', '/robot0/battery_status']
     assert batteries['/robot0/battery_status'] == {'low': '/robot0/battery_low'}
 
 
 def test_namespace_of():
-    assert model.namespace_of('/robot3/battery_status') == '/robot3/'
-    assert model.namespace_of('/battery_status') == '/'
-    assert model.namespace_of('/a/b/c') == '/a/b/'
+    assert discovery.namespace_of('/robot3/battery_status') == '/robot3/'
+    assert discovery.namespace_of('/battery_status') == '/'
+    assert discovery.namespace_of('/a/b/c') == '/a/b/'
 
 
 # -- rules and text ------------------------------------------------------------------
@@ -111,11 +113,11 @@ def test_a_battery_goes_stale_then_leaves_after_history_s_and_the_page_hears_bot
 
 
 def test_nan_fields_show_a_dash():
-    assert model.percentage_text(NAN) == '-'
-    assert model.number_text(NAN, 2, 'V') == '-'
-    assert model.number_text(math.inf, 2, 'V') == '-'
-    assert model.number_text(None, 2, 'V') == '-'
-    assert model.duration_text(NAN) == '-' and model.duration_text(None) == '-'
+    assert texts.percentage_text(NAN) == '-'
+    assert texts.number_text(NAN, 2, 'V') == '-'
+    assert texts.number_text(math.inf, 2, 'V') == '-'
+    assert texts.number_text(None, 2, 'V') == '-'
+    assert texts.duration_text(NAN) == '-' and texts.duration_text(None) == '-'
     dashboard = DashboardModel(history_s=600)
     dashboard.on_battery(TOPIC, battery(percentage=NAN, voltage=NAN, current=NAN, temperature=NAN, charge=NAN,
                                         capacity=NAN, status=0, health=0), 0.0)
@@ -135,8 +137,8 @@ def test_field_text():
     assert fields['percentage'] == '63.2 %'
     assert fields['voltage'] == '11.50 V' and fields['current'] == '-1.50 A' and fields['temperature'] == '25.0 °C'
     assert fields['status'] == 'Discharging' and fields['time_remaining'] == '1 h 16 min'   # 1.9 Ah at 1.5 A
-    assert model.duration_text(40) == '40 s' and model.duration_text(420) == '7 min'
-    assert model.duration_text(7500) == '2 h 05 min'
+    assert texts.duration_text(40) == '40 s' and texts.duration_text(420) == '7 min'
+    assert texts.duration_text(7500) == '2 h 05 min'
 
 
 def test_status_names():
@@ -266,10 +268,10 @@ def test_snapshot_and_changes_are_in_natural_order_and_each_view_carries_its_ord
 
 
 def test_natural_key():
-    assert model.natural_key('/robot2/x') < model.natural_key('/robot10/x') < model.natural_key('/robot10a/x')
-    assert model.natural_key('/a/battery_status') < model.natural_key('/b/battery_status')
-    assert model.natural_key('/robot007/x') < model.natural_key('/robot8/x')
-    assert sorted(['robot%d' % k for k in range(1000)], key=model.natural_key) == ['robot%d' % k for k in range(1000)]
+    assert texts.natural_key('/robot2/x') < texts.natural_key('/robot10/x') < texts.natural_key('/robot10a/x')
+    assert texts.natural_key('/a/battery_status') < texts.natural_key('/b/battery_status')
+    assert texts.natural_key('/robot007/x') < texts.natural_key('/robot8/x')
+    assert sorted(['robot%d' % k for k in range(1000)], key=texts.natural_key) == ['robot%d' % k for k in range(1000)]
 
 
 # -- the web app's checks -----------------------------------------------------------
@@ -534,14 +536,14 @@ def test_a_stalled_page_is_closed_rather_than_buffered_for():
 
 
 def test_numbers_no_one_can_read_are_shown_short_and_marked():
-    assert model.number_text(3.4e38, 2, 'V', 'voltage') == '3.4e+38 V (out of range)'
-    assert model.percentage_text(-1e9) == '-1e+11 % (out of range)'
-    assert model.percentage_text(0.632) == '63.2 %' and model.number_text(12.31, 2, 'V') == '12.31 V'
-    assert model.number_text(0.0, 2, 'V', 'voltage') == '0.00 V (out of range)'   # no pack reads 0 V
-    assert model.number_text(-1.0, 2, 'V', 'voltage') == '-1.00 V (out of range)'
-    assert model.number_text(2500.0, 2, 'A', 'current') == '2500.00 A (out of range)'
-    assert model.number_text(math.inf, 2, 'V', 'voltage') == '-'
-    record = model.BatteryRecord('/r/battery_status', 0.0)
+    assert texts.number_text(3.4e38, 2, 'V', 'voltage') == '3.4e+38 V (out of range)'
+    assert texts.percentage_text(-1e9) == '-1e+11 % (out of range)'
+    assert texts.percentage_text(0.632) == '63.2 %' and texts.number_text(12.31, 2, 'V') == '12.31 V'
+    assert texts.number_text(0.0, 2, 'V', 'voltage') == '0.00 V (out of range)'   # no pack reads 0 V
+    assert texts.number_text(-1.0, 2, 'V', 'voltage') == '-1.00 V (out of range)'
+    assert texts.number_text(2500.0, 2, 'A', 'current') == '2500.00 A (out of range)'
+    assert texts.number_text(math.inf, 2, 'V', 'voltage') == '-'
+    record = model.DashboardBattery('/r/battery_status', 0.0)
     record.on_battery(battery(percentage=-1e9, voltage=3.4e38), 1.0, 1.0)
     view = record.view(1.0)
     assert view['out_of_range'] == ['percentage', 'voltage'], view['out_of_range']
@@ -551,7 +553,7 @@ def test_numbers_no_one_can_read_are_shown_short_and_marked():
 def test_a_time_remaining_from_absurd_values_is_unknown_and_every_shown_text_is_short():
     """A charge of 3.4e38 Ah over a sane current made a 40-digit time remaining ('2266...6588 h 48 min');
     the simulator's cycle count and health are the server's text too, short and marked."""
-    record = model.BatteryRecord('/r/battery_status', 0.0)
+    record = model.DashboardBattery('/r/battery_status', 0.0)
     record.on_battery(battery(charge=3.4e38, current=-1.5), 1.0, 1.0)
     record.sim = {'cycle_count': 3.4e38, 'state_of_health': -1e9}
     view = record.view(1.0)
@@ -561,7 +563,7 @@ def test_a_time_remaining_from_absurd_values_is_unknown_and_every_shown_text_is_
     assert view['fields']['state_of_health'] == '-1e+11 % (out of range)'
     assert view['out_of_range'] == ['charge', 'cycle_count', 'state_of_health'], view['out_of_range']
     assert max(len(text) for text in view['fields'].values()) < 30, view['fields']
-    assert model.duration_text(1e4 * 3600.0) == '> 9999 h' and model.duration_text(7500) == '2 h 05 min'
+    assert texts.duration_text(1e4 * 3600.0) == '> 9999 h' and texts.duration_text(7500) == '2 h 05 min'
     record.sim = {'cycle_count': 12.5, 'state_of_health': 0.93}
     fields = record.view(1.0)['fields']
     assert (fields['cycle_count'], fields['state_of_health']) == ('12.50', '93.0 %')
@@ -581,16 +583,16 @@ def test_a_silent_but_advertised_topic_stays_away_once_dropped():
 
 
 def test_the_page_takes_its_texts_and_limits_from_the_core():
-    """The health texts are the diagnostics' (core/names.py), set_state's limits the simulator's
-    (core/battery_model.py), the low / critical defaults battery_state_pub's (core/settings.py)."""
-    from battery_simulator.core import names
+    """The health texts are the diagnostics' (core/status_codes.py), set_state's limits the simulator's
+    (core/battery_model.py), the low / critical defaults battery_state_pub's (core/node_settings.py)."""
+    from battery_simulator.core import status_codes
     from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, SET_STATE_TEMPERATURE_C
-    from battery_simulator.core.settings import PUBLISHER_SETTINGS
+    from battery_simulator.core.node_settings import PUBLISHER_SETTINGS
     dashboard = DashboardModel(history_s=600)
-    for code, text in names.HEALTH_TEXT.items():
+    for code, text in status_codes.HEALTH_TEXT.items():
         dashboard.on_battery(TOPIC, battery(health=code), 0.0)
         shown = dashboard.snapshot(0.1)[0]['fields']['health']
-        assert shown == ('-' if code == names.SupplyHealth.UNKNOWN else text), (code, shown)
+        assert shown == ('-' if code == status_codes.SupplyHealth.UNKNOWN else text), (code, shown)
     assert app.SET_STATE_RANGES['state_of_health'] == (MIN_STATE_OF_HEALTH, 1.0)
     assert app.SET_STATE_RANGES['temperature_c'] == SET_STATE_TEMPERATURE_C
     with pytest.raises(ValueError, match=r'\[0\.01, 1\]'):

@@ -13,11 +13,12 @@ from types import SimpleNamespace
 import pytest
 
 from battery_simulator.core.battery import Battery
-from battery_simulator.core.status_rules import StatusRules
-from battery_simulator.core.battery_model import BatteryModel, Mode, Status
-from battery_simulator.core.parameters import ParameterError, default_config_path, from_mapping, load_yaml, preset, \
-    preset_names
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import default_config_path, from_mapping, load_yaml, preset, preset_names
+from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.core.prediction import Segment, predict
+from battery_simulator.core.status_rules import StatusRules
 
 #: SimpleChargingDock's charging_threshold (A) and the docking server's wait for charge after contact (s)
 CHARGING_THRESHOLD_A = 0.5

@@ -13,12 +13,12 @@ import yaml
 
 import fit_logs
 from battery_simulator.cli import fit as fit_cli
+from battery_simulator.core.config_files import load_yaml, preset
 from battery_simulator.core.fit import FitError
 from battery_simulator.core.fit.circuit import rc_filter
 from battery_simulator.core.fit.conventions import prepare
 from battery_simulator.core.fit.fitting import fit
 from battery_simulator.core.fit.log_reader import RawLog, import_rosbags, read_log
-from battery_simulator.core.parameters import load_yaml, preset
 from battery_simulator.core.replay import read_profile, replay
 
 HG2 = preset('lg_hg2_cell')

@@ -7,11 +7,11 @@ import pytest
 
 import fit_logs
 from battery_simulator.cli import fit as fit_cli
+from battery_simulator.core.config_files import load_yaml, preset
 from battery_simulator.core.fit.conventions import prepare
 from battery_simulator.core.fit.fitting import _lasting, fit
 from battery_simulator.core.fit.log_reader import read_log
 from battery_simulator.core.fit.report import figures
-from battery_simulator.core.parameters import load_yaml, preset
 
 HG2 = preset('lg_hg2_cell')
 LIMIT_MV = 15.0

@@ -98,7 +98,7 @@ def test_one_idle_term_is_fitted_and_said(robot_csv, tmp_path, capsys):
     fit_cli.main([path, '-o', output])
     report = capsys.readouterr().out
     assert 'one idle term' in report, report
-    from battery_simulator.core.parameters import load_yaml
+    from battery_simulator.core.config_files import load_yaml
     fitted = load_yaml(output)
     assert (fitted.load_current_a > 0) != (fitted.load_power_w > 0), 'exactly one idle term: %g A, %g W' % (
         fitted.load_current_a, fitted.load_power_w)
@@ -132,7 +132,8 @@ def test_a_users_files_are_checked_before_the_fit_and_left_alone(robot_csv, tmp_
 
 def test_the_chemistry_key_selects_the_lfp_tables_and_leaves_li_ion_alone():
     from battery_simulator.core.lfp_tables import LFP_OCV_VOLTAGE_V
-    from battery_simulator.core.parameters import ParameterError, from_mapping, preset
+    from battery_simulator.core.config_files import from_mapping, preset
+    from battery_simulator.core.parameter_rules import ParameterError
     hg2 = preset('lg_hg2_cell')
     assert hg2.chemistry == 'li-ion' and from_mapping({'preset': 'lg_hg2_cell'}) == hg2
     lfp = from_mapping({'preset': 'lg_hg2_cell', 'chemistry': 'lfp'})
@@ -155,7 +156,7 @@ def test_cell_voltage_gives_the_series_count_and_a_per_cell_voltage_is_warned(ro
     from battery_simulator.core.fit.conventions import prepare
     from battery_simulator.core.fit.fitting import fit
     from battery_simulator.core.fit.log_reader import read_log
-    from battery_simulator.core.parameters import preset
+    from battery_simulator.core.config_files import preset
     _, path = robot_csv
     raw = read_log(path)
     raw.cell_count, raw.cell_sum_v = 5, list(raw.voltage_v)   # BatteryState.cell_voltage: 5 cells adding up

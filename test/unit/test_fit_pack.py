@@ -8,8 +8,8 @@ import pytest
 
 import fit_logs
 from battery_simulator.cli import fit as fit_cli
+from battery_simulator.core.config_files import load_yaml
 from battery_simulator.core.fit.log_reader import import_rosbags
-from battery_simulator.core.parameters import load_yaml
 
 needs_rosbags = pytest.mark.skipif(import_rosbags() is None, reason='rosbags not installed (tools/install_dependencies.sh)')
 

@@ -7,10 +7,10 @@ from types import SimpleNamespace
 import pytest
 
 from battery_simulator.core.battery import Battery
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import from_mapping
 from battery_simulator.core.diagnostics import battery_values
-from battery_simulator.core.names import DIAGNOSTIC_KEYS, SupplyStatus
-from battery_simulator.core.parameters import from_mapping
+from battery_simulator.core.status_codes import DIAGNOSTIC_KEYS, SupplyStatus
 
 ONE_C = 2.781 * 1
 

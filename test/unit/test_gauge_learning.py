@@ -5,11 +5,12 @@ import pickle
 
 import pytest
 
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import (from_mapping, gauge_preset, gauge_preset_names, preset,
+                                                 preset_directory, preset_names, with_gauge_config)
 from battery_simulator.core.learning_gauge import CAPACITY_LEARNED, END_OF_CHARGE, OCV_REST
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.parameters import (ParameterError, from_mapping, gauge_preset, gauge_preset_names,
-                                               preset, preset_directory, preset_names, with_gauge_config)
+from battery_simulator.core.parameter_rules import ParameterError
 
 PACK = 'lg_hg2_3s1p'
 DESIGN_AH = preset(PACK).design_capacity_ah

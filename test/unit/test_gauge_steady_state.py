@@ -6,10 +6,10 @@ current still flows (before: 100 % about 760 s before Full, at 0.57 A, four time
 """
 import pytest
 
-from battery_simulator.core.battery_model import Mode, Status
-from battery_simulator.core.pack import make_model
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import default_config_path, load_yaml
 from battery_simulator.core.gauge import HOLD_BEFORE_FULL
-from battery_simulator.core.parameters import default_config_path, load_yaml
+from battery_simulator.core.pack import make_model
 
 REALISTIC = default_config_path().parent / 'battery_realistic.yaml'
 LOW = 25.0          # demo.launch's low_percentage, what the robot reads

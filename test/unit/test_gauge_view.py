@@ -7,11 +7,11 @@ from types import SimpleNamespace
 import pytest
 
 from battery_simulator.core.battery import Battery
-from battery_simulator.core.battery_model import Mode, Status
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import from_mapping, preset, preset_names
 from battery_simulator.core.diagnostics import battery_values
-from battery_simulator.core.names import FAULTS
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.parameters import from_mapping, preset, preset_names
+from battery_simulator.core.status_codes import FAULTS
 
 AGED = 'lg_hg2_7s4p_aged'
 

@@ -5,9 +5,11 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, CutOff, Health, Mode, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import CutOff, Health, Mode, Status
+from battery_simulator.core.config_files import preset
 from battery_simulator.core.level_alarm import LevelAlarm
-from battery_simulator.core.parameters import ParameterError, preset
+from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.core.time_base import TimeBase
 
 CELL = preset('lg_hg2_cell')

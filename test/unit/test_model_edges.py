@@ -4,8 +4,11 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel, CutOff, Mode, OcvCurve, Status
-from battery_simulator.core.parameters import BatteryParameters, preset
+from battery_simulator.core.battery_model import MIN_STATE_OF_HEALTH, BatteryModel
+from battery_simulator.core.battery_parameters import BatteryParameters
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.cell_tables import OcvCurve
+from battery_simulator.core.config_files import preset
 
 #: the default cell with temperature-independent resistances (linear OCV 2.8..4.2 V)
 PLAIN = replace(BatteryParameters(), arrhenius_temperature_k=0.0)

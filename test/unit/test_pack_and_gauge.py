@@ -4,9 +4,10 @@ import json
 
 import pytest
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.config_files import from_mapping, preset
 from battery_simulator.core.pack import GroupedPack, group_factors, make_model
-from battery_simulator.core.parameters import ParameterError, from_mapping, preset
+from battery_simulator.core.parameter_rules import ParameterError
 
 import pack_scenarios
 

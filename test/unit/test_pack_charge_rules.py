@@ -13,9 +13,9 @@ import math
 
 import pytest
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.config_files import from_mapping
 from battery_simulator.core.pack import GroupedPack, make_model
-from battery_simulator.core.parameters import from_mapping
 
 CAPACITY_AS = 2.781 * 3600.0   # one lg_hg2_cell, A*s
 EFFICIENCY = 0.999             # its coulombic efficiency

@@ -3,9 +3,11 @@ in one group alone, alike groups cycle exactly as the lumped pack, and the confi
 cannot exist. No ROS; the charge is counted step by step from the pack's own throughput."""
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.config_files import from_mapping, preset
 from battery_simulator.core.pack import GroupedPack, group_factors, make_model
-from battery_simulator.core.parameters import ParameterError, from_mapping, preset
+from battery_simulator.core.parameter_rules import ParameterError
 
 PACK = 'lg_hg2_7s4p'   # 7S4P HG2, 11.124 Ah
 

@@ -3,9 +3,10 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core import parameters
-from battery_simulator.core.parameters import (PARAMETER_NAMES, BatteryParameters, ParameterError, from_mapping,
-                                               load_yaml, preset, preset_directory, preset_names)
+from battery_simulator.core import config_files
+from battery_simulator.core.battery_parameters import PARAMETER_NAMES, BatteryParameters
+from battery_simulator.core.config_files import from_mapping, load_yaml, preset, preset_directory, preset_names
+from battery_simulator.core.parameter_rules import ParameterError
 
 NAN = float('nan')
 
@@ -257,7 +258,7 @@ def test_a_bad_shipped_preset_names_its_file(tmp_path, monkeypatch):
     (tmp_path / 'cell.yaml').write_text('name: cell\nload_current_a: -1\n')
     (tmp_path / 'good_cell.yaml').write_text('name: good_cell\n')
     (tmp_path / 'pack.yaml').write_text('preset: good_cell\nname: pack\nload_current_a: -2\n')
-    monkeypatch.setattr(parameters, 'preset_directory', lambda: tmp_path)
+    monkeypatch.setattr(config_files, 'preset_directory', lambda: tmp_path)
     with pytest.raises(ParameterError) as error:
         preset('cell')
     assert str(error.value) == '%s: %s' % (tmp_path / 'cell.yaml', message('load_current_a', -1.0, 'a number >= 0'))

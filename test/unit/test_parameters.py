@@ -3,8 +3,9 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.parameters import (PARAMETER_NAMES, BatteryParameters, ParameterError,
-                                          default_config_path, load_yaml, preset, preset_names)
+from battery_simulator.core.battery_parameters import PARAMETER_NAMES, BatteryParameters
+from battery_simulator.core.config_files import default_config_path, load_yaml, preset, preset_names
+from battery_simulator.core.parameter_rules import ParameterError
 
 BAD_VALUES = [
     ('cells_series', 0), ('cells_series', 2.5), ('cells_parallel', True), ('cell_capacity_ah', -1.0),

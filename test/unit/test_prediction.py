@@ -7,9 +7,10 @@ import pytest
 
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import BatteryModel, Mode, Status
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.config_files import load_yaml, preset
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.parameters import load_yaml, preset
 from battery_simulator.core.prediction import (CHECKPOINT_SEGMENTS, MAX_PLAN_S, MAX_SEGMENTS, PredictionError,
                                                Segment, plan_from_arrays, predict)
 from battery_simulator.core.replay import OUTPUT_COLUMNS

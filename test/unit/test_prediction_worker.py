@@ -18,10 +18,10 @@ from array import array
 import pytest
 
 from battery_simulator.core import prediction_worker
-from battery_simulator.core.prediction_worker import Busy, PredictionPool, WorkerFailed
 from battery_simulator.core.battery_model import BatteryModel
-from battery_simulator.core.parameters import preset
+from battery_simulator.core.config_files import preset
 from battery_simulator.core.prediction import PredictionError, plan_from_arrays, predict
+from battery_simulator.core.prediction_worker import Busy, PredictionPool, WorkerFailed
 
 NAN = math.nan
 PACK = preset('lg_hg2_3s1p')
@@ -245,7 +245,7 @@ PARENT = textwrap.dedent('''
     from array import array
     from battery_simulator.core import prediction_worker
     from battery_simulator.core.battery_model import BatteryModel
-    from battery_simulator.core.parameters import preset
+    from battery_simulator.core.config_files import preset
     signal.signal(signal.SIGINT, lambda *_: os._exit(0))   # a node ends on SIGINT (and its workers follow)
     pool = prediction_worker.PredictionPool()
     pool.start()

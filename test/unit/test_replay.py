@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.config_files import preset, preset_names
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.parameters import preset, preset_names
 from battery_simulator.core.replay import OUTPUT_COLUMNS, ProfileError, main, read_profile, replay
 
 SOURCE = Path(__file__).resolve().parents[2] / 'src'

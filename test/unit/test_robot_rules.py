@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from battery_simulator.core.settings import SettingError, check_setting
+from battery_simulator.core.node_settings import SettingError, check_setting
 from battery_simulator.robot import base, clock, cmd_vel_gate, dock_contact, patrol
 
 NAN, INF = math.nan, math.inf

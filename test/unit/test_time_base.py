@@ -5,7 +5,7 @@ import random
 import pytest
 
 from battery_simulator.core.battery import Battery
-from battery_simulator.core.parameters import preset
+from battery_simulator.core.config_files import preset
 from battery_simulator.core.time_base import TimeBase
 
 

@@ -4,8 +4,11 @@ from dataclasses import replace
 
 import pytest
 
-from battery_simulator.core.battery_model import BatteryModel, Mode, ResistanceTable, Status
-from battery_simulator.core.parameters import BatteryParameters, ParameterError
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_parameters import BatteryParameters
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.cell_tables import ResistanceTable
+from battery_simulator.core.parameter_rules import ParameterError
 
 #: the default cell (linear OCV 2.8..4.2 V) without Arrhenius, with every issue-25 feature on
 TWO_RC = replace(BatteryParameters(), arrhenius_temperature_k=0.0, r_fast_ohm=0.01, tau_fast_s=15.0,

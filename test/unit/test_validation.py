@@ -4,10 +4,10 @@ from pathlib import Path
 
 import pytest
 
+from battery_simulator.core.config_files import preset
 from battery_simulator.core.measured_data import (charge_phase_errors, charge_runs, charge_time_error,
                                                   discharge_rmse, load_cycler_csv, measured_charge_phases,
                                                   simulate)
-from battery_simulator.core.parameters import preset
 
 DATA = Path(__file__).resolve().parents[1] / 'data' / 'lg_hg2'
 CELL = preset('lg_hg2_cell')

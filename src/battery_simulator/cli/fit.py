@@ -21,7 +21,8 @@ try:   # numpy and the model load for half a second: a Ctrl-C then is an interru
     from battery_simulator.core.fit.fitting import DEFAULT_HOLDOUT, fit
     from battery_simulator.core.fit.log_reader import read_log
     from battery_simulator.core.fit.report import figures, report_text, write_profile
-    from battery_simulator.core.parameters import MAX_CELLS, ParameterError, preset, preset_names
+    from battery_simulator.core.config_files import preset, preset_names
+    from battery_simulator.core.parameter_rules import MAX_CELLS, ParameterError
 except KeyboardInterrupt:
     sys.stderr.write('\nbattery_fit: interrupted (no config written)\n')
     sys.exit(130)

@@ -26,8 +26,9 @@ import sys
 from collections import namedtuple
 
 from battery_simulator.core.command_line import OneLineParser
+from battery_simulator.core.config_files import load_yaml, preset
 from battery_simulator.core.level_alarm import LevelAlarm
-from battery_simulator.core.parameters import ParameterError, load_yaml, preset
+from battery_simulator.core.parameter_rules import ParameterError
 
 #: one run: times (s from the start) and the four series, plus [(t, label)] marks
 Run = namedtuple('Run', 'title time voltage current percentage temperature marks gauge cells truth gauge_events '

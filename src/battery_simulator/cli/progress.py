@@ -1,5 +1,5 @@
 """The client's progress line, ROS-free (battery_sim_client on ROS 1 and ROS 2 draw the same)."""
-from battery_simulator.core.names import SupplyStatus
+from battery_simulator.core.status_codes import SupplyStatus
 
 SUPPLY_STATUS = {SupplyStatus.CHARGING: 'charging', SupplyStatus.DISCHARGING: 'discharging',
                  SupplyStatus.FULL: 'full', SupplyStatus.NOT_CHARGING: 'not charging'}

@@ -26,14 +26,14 @@ import time
 from collections import namedtuple
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
+from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.gauge import CAPACITY_LEARNED, LOGGED_CORRECTION
-from battery_simulator.core.names import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
-                                          SupplyStatus)
+from battery_simulator.core.node_settings import MAX_TIME_SCALE
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.settings import MAX_TIME_SCALE
-from battery_simulator.core.parameters import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, is_number,
-                                               load_power_error)
+from battery_simulator.core.parameter_rules import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, is_number,
+                                                    load_power_error)
+from battery_simulator.core.status_codes import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
+                                                 SupplyStatus)
 from battery_simulator.core.time_base import TimeBase
 
 #: under sim time, the largest forward step of ROS time between two updates that counts as elapsed, s.

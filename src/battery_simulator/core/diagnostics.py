@@ -6,7 +6,7 @@ own diagnostic_msgs classes.
 """
 import math
 
-from battery_simulator.core.names import HEALTH_TEXT, DiagnosticLevel, SupplyHealth
+from battery_simulator.core.status_codes import HEALTH_TEXT, DiagnosticLevel, SupplyHealth
 
 
 def battery_level(state, stale, low, critical):

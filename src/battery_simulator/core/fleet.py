@@ -9,7 +9,7 @@ fleet.launch always did: 100, 95, 90, ..., wrapping at 20.
 import re
 from dataclasses import dataclass, replace
 
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.parameter_rules import is_number
 
 #: a ROS graph name segment: a letter, then letters, digits and underscores
 _NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')

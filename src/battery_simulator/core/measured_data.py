@@ -8,7 +8,8 @@ import math
 from collections import namedtuple
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import Mode, OcvCurve, Status
+from battery_simulator.core.battery_states import Mode, Status
+from battery_simulator.core.cell_tables import OcvCurve
 from battery_simulator.core.pack import make_model
 
 #: One logged sample: time since the start of the file's first step (s), step number,

@@ -36,8 +36,9 @@ import math
 import random
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import BatteryModel, CutOff, Mode, Status
-from battery_simulator.core.parameters import SPREAD_SIGMAS
+from battery_simulator.core.battery_model import BatteryModel
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.parameter_rules import SPREAD_SIGMAS
 
 
 #: a group this far below its charge voltage is in its CC phase: the string's charge is not tried per group
@@ -55,7 +56,7 @@ def make_model(params=None, state_of_charge=1.0, mode=Mode.DISCHARGE):
 def group_factors(params):
     """[(capacity factor, resistance factor, initial SOC offset)] of the series groups: the config's
     ``groups``, or drawn from the spreads with ``spread_seed`` (a normal law, clipped to +-3 sigma:
-    parameters.py keeps the spreads below 1/3, so every factor is > 0)."""
+    parameter_rules.py keeps the spreads below 1/3, so every factor is > 0)."""
     if params.groups:
         return [(float(g.get('capacity_factor', 1.0)), float(g.get('resistance_factor', 1.0)),
                  float(g.get('initial_soc_offset', 0.0))) for g in params.groups]

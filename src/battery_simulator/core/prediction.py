@@ -31,8 +31,8 @@ from dataclasses import dataclass
 from itertools import repeat
 from typing import NamedTuple
 
-from battery_simulator.core.battery_model import CutOff, Mode, Status
-from battery_simulator.core.parameters import MAX_SPEED_MPS, MAX_TURN_RADPS, is_number, load_power_error
+from battery_simulator.core.battery_states import CutOff, Mode, Status
+from battery_simulator.core.parameter_rules import MAX_SPEED_MPS, MAX_TURN_RADPS, is_number, load_power_error
 
 #: the longest plan, s (7 days)
 MAX_PLAN_S = 7 * 86400.0

@@ -29,11 +29,12 @@ import os
 import sys
 from dataclasses import replace
 
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.command_line import OneLineParser
+from battery_simulator.core.config_files import DEFAULT_PRESET, load_yaml, preset, preset_names
 from battery_simulator.core.gauge import EVENT_KINDS
 from battery_simulator.core.pack import make_model
-from battery_simulator.core.parameters import DEFAULT_PRESET, ParameterError, load_yaml, preset, preset_names
+from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.core.prediction import predict
 
 #: soc is the truth; gauge_soc what the pack's fuel gauge reads (0-1); the cell voltages of the lowest

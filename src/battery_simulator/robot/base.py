@@ -7,8 +7,8 @@ the pose it returns as odometry and tf.
 import collections
 import math
 
-from battery_simulator.core.parameters import is_number
-from battery_simulator.core.settings import Setting
+from battery_simulator.core.node_settings import Setting
+from battery_simulator.core.parameter_rules import is_number
 
 #: fake_base's parameters (ROS 1: ~name; ROS 2: declared)
 SETTINGS = (

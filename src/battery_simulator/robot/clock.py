@@ -2,8 +2,8 @@
 every 1 / ``tick_hz`` wall seconds, catching up when late by less than BEHIND_S and giving up (the clock
 runs slower than asked, as Gazebo's real-time factor drops) beyond it; and the hold until named topics
 have publishers. The front ends: ros1/sim_clock.py, ros2/sim_clock.py (and battery_demo's clock)."""
-from battery_simulator.core.parameters import is_number
-from battery_simulator.core.settings import Setting, is_topic_name
+from battery_simulator.core.node_settings import Setting, is_topic_name
+from battery_simulator.core.parameter_rules import is_number
 
 BEHIND_S = 0.1   # further behind its wall schedule than this, the clock gives up catching up
 HOLD_PERIOD_S = 0.1   # while holding: how often the held time is published and the graph asked

@@ -11,8 +11,8 @@ the robot came since it entered the radius.
 """
 import math
 
-from battery_simulator.core.parameters import is_number
-from battery_simulator.core.settings import Setting
+from battery_simulator.core.node_settings import Setting
+from battery_simulator.core.parameter_rules import is_number
 
 REPEAT_PERIOD_S = 0.5   # ROS time between repeats of the contact (at least once a second)
 LEAVING_M = 0.05        # farther than this from the closest it came within the radius: the robot is leaving

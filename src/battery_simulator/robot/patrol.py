@@ -9,8 +9,8 @@ tell it how the goal ended, log and publish each phase.
 """
 import math
 
-from battery_simulator.core.parameters import is_number
-from battery_simulator.core.settings import Setting
+from battery_simulator.core.node_settings import Setting
+from battery_simulator.core.parameter_rules import is_number
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 PHASES = (PATROL, GO_TO_DOCK, CHARGING, UNDOCK)

@@ -45,11 +45,11 @@ import actionlib
 import rospy
 from std_msgs.msg import Bool, UInt64
 
+from battery_simulator.core import ros_names
 from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery,
                                             BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage)
-from battery_simulator.core.battery_log import resume_battery, say_ready
-from battery_simulator.core import topics
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros1.cached_param import CachedParam
 from battery_simulator.ros1.log import RobotLog
@@ -86,7 +86,7 @@ class BatterySimServer:
         self._node_name = node_name
         self._log = log or RobotLog()
         sim_time = bool(rospy.get_param('/use_sim_time', False))
-        self._mode_param = CachedParam(namespace + topics.MODE_PARAM)
+        self._mode_param = CachedParam(namespace + ros_names.MODE_PARAM)
         self.battery = Battery(params, initial_percentage, charging,
                                clock=rospy.get_time if sim_time else time.monotonic, sim_time=sim_time,
                                time_scale=time_scale, mode_name=self._mode_param.name, log=self._log,
@@ -114,9 +114,9 @@ class BatterySimServer:
         self._latest_state = None
         # a subscriber gets the latest state when it connects (as a latched topic, without building
         # and serializing a message at every update while nobody listens)
-        self._state_pub = rospy.Publisher(namespace + topics.STATE_TOPIC, BatterySimState, queue_size=1,
+        self._state_pub = rospy.Publisher(namespace + ros_names.STATE_TOPIC, BatterySimState, queue_size=1,
                                           subscriber_listener=_LatestStateOnConnect(self))
-        self._server = actionlib.SimpleActionServer(namespace + topics.ACTION, battery_simAction, auto_start=False)
+        self._server = actionlib.SimpleActionServer(namespace + ros_names.ACTION, battery_simAction, auto_start=False)
         self._server.register_goal_callback(self._wake_up)
         self._server.register_preempt_callback(self._wake_up)
         loop.add(self)
@@ -140,10 +140,10 @@ class BatterySimServer:
 
     def start(self):
         ns = self._ns
-        self._subscribers = [rospy.Subscriber(ns + topics.CMD_VEL, rospy.AnyMsg, self._on_cmd_vel, queue_size=1),
-                             rospy.Subscriber(ns + topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
+        self._subscribers = [rospy.Subscriber(ns + ros_names.CMD_VEL, rospy.AnyMsg, self._on_cmd_vel, queue_size=1),
+                             rospy.Subscriber(ns + ros_names.CHARGER_CONTACT, Bool, self._on_contact, queue_size=10)]
         if not self._state_listeners:   # battery_state_pub is another process: it acknowledges on a topic
-            self._sent_sub = rospy.Subscriber(ns + topics.STATUS_SENT, UInt64,
+            self._sent_sub = rospy.Subscriber(ns + ros_names.STATUS_SENT, UInt64,
                                               lambda msg: self.on_status_sent(msg.data), queue_size=10)
         self._services = BatteryServices(self, ns, self._node_name, self._log)
         self._publish_state(self.battery.record())
@@ -311,7 +311,7 @@ class BatterySimServer:
         """A cmd_vel of either type (core/velocity.py): its connection says which."""
         twist = twist_of_any(raw)
         if twist is None:
-            self._log.error_throttle(10.0, '%s: type %s ignored (Twist or TwistStamped)', self._ns + topics.CMD_VEL,
+            self._log.error_throttle(10.0, '%s: type %s ignored (Twist or TwistStamped)', self._ns + ros_names.CMD_VEL,
                                      raw._connection_header.get('type'))
             return
         try:

@@ -1,14 +1,15 @@
 """battery_sim_server.py's main: the action server node (BatterySimServer in sim.launch), one battery
 (ros1/action_server.py), its update loop and its state store. ``read_settings`` is shared with the fleet host.
 
-:ROS Parameters: core/settings.py BATTERY_SETTINGS as private parameters (``~config``, ``~time_scale``,
+:ROS Parameters: core/node_settings.py BATTERY_SETTINGS as private parameters (``~config``, ``~time_scale``,
   ``~update_rate``, ``~initial_percentage``, ``~charging``, ``~state_file``, ``~max_time_jump``), listed with
   the topics and services in ros1/action_server.py.
 """
 import rospy
 
-from battery_simulator.core.parameters import ParameterError, load_yaml, with_gauge_config
-from battery_simulator.core.settings import BATTERY_SETTINGS, GAUGE_CONFIG
+from battery_simulator.core.config_files import load_yaml, with_gauge_config
+from battery_simulator.core.node_settings import BATTERY_SETTINGS, GAUGE_CONFIG
+from battery_simulator.core.parameter_rules import ParameterError
 from battery_simulator.ros1.action_server import BatterySimServer
 from battery_simulator.ros1.saved_state import StateStore
 from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, check_state_file_param,
@@ -18,7 +19,7 @@ from battery_simulator.ros1.workers import StatusTimer, UpdateLoop
 
 
 def read_settings():
-    """All start-up parameters (core/settings.py BATTERY_SETTINGS), checked; raises StartupError."""
+    """All start-up parameters (core/node_settings.py BATTERY_SETTINGS), checked; raises StartupError."""
     settings = read_private_settings(BATTERY_SETTINGS + (GAUGE_CONFIG,))
     try:
         settings['params'] = load_yaml(settings['config'])

@@ -20,7 +20,7 @@ import threading
 import rospy
 
 from battery_simulator.msg import BatterySimState
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import cmd_vel_gate as rule
 from battery_simulator.ros1.twist import TwistPublisher, TwistSubscriber
 
@@ -30,7 +30,7 @@ class CmdVelGate:
         self._lock = threading.Lock()   # guards _gate and the commands and stops published
         self._gate = rule.CmdVelGate()
         self._pub = TwistPublisher('cmd_vel_out', queue_size=10, like_topics=('cmd_vel_in',))
-        self._state_sub = rospy.Subscriber(topics.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
+        self._state_sub = rospy.Subscriber(ros_names.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
         self._cmd_sub = TwistSubscriber('cmd_vel_in', self._on_cmd_vel, queue_size=10)
 
     def _on_state(self, state):

@@ -21,7 +21,7 @@ import rospy
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import dock_contact as rule
 from battery_simulator.ros1.startup import init_node, read_private_settings
 
@@ -34,8 +34,8 @@ class DockContact:
     def __init__(self, dock_x, dock_y, radius, max_speed):
         self._lock = threading.Lock()   # guards _contact
         self._contact = rule.DockContact(dock_x, dock_y, radius, max_speed)
-        self._pub = rospy.Publisher(topics.CHARGER_CONTACT, Bool, queue_size=1, latch=True)
-        self._sub = rospy.Subscriber(topics.ODOM, Odometry, self._on_odom, queue_size=1)
+        self._pub = rospy.Publisher(ros_names.CHARGER_CONTACT, Bool, queue_size=1, latch=True)
+        self._sub = rospy.Subscriber(ros_names.ODOM, Odometry, self._on_odom, queue_size=1)
 
     def _on_odom(self, odom):
         position, twist = odom.pose.pose.position, odom.twist.twist

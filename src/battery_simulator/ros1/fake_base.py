@@ -25,7 +25,7 @@ import tf2_ros
 from geometry_msgs.msg import Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
 
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import base
 from battery_simulator.ros1.startup import init_node, read_private_settings
 from battery_simulator.ros1.twist import TwistSubscriber
@@ -46,9 +46,9 @@ class FakeBase:
         self._frames = (odom_frame, base_frame)
         self._lock = threading.Lock()   # guards _base
         self._base = base.Base(x, y, yaw, cmd_vel_timeout)
-        self._odom_pub = rospy.Publisher(topics.ODOM, Odometry, queue_size=10)
+        self._odom_pub = rospy.Publisher(ros_names.ODOM, Odometry, queue_size=10)
         self._tf = tf2_ros.TransformBroadcaster()
-        self._sub = TwistSubscriber(topics.CMD_VEL, self._on_cmd_vel)
+        self._sub = TwistSubscriber(ros_names.CMD_VEL, self._on_cmd_vel)
 
     def _on_cmd_vel(self, twist, msg=None):
         linear, angular = twist.linear.x, twist.angular.z

@@ -41,9 +41,9 @@ from battery_simulator.ros1.log import RobotLog
 from battery_simulator.ros1.saved_state import FleetStore
 from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate, repeat_at_rate
 from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
+from battery_simulator.core.config_files import load_yaml
 from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, host_share,
                                           is_first, is_fleet_rate, robot_configs, robot_params, robot_specs)
-from battery_simulator.core.parameters import load_yaml
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, checked_param,
                                            ending_the_node_on_error,

@@ -35,7 +35,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, String
 
 from battery_simulator.msg import battery_simAction, battery_simGoal
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import patrol as rule
 from battery_simulator.ros1.startup import init_node, read_private_settings
 
@@ -60,14 +60,14 @@ class PatrolAndDock:
         self._percentage = float('nan')
         self._patrol = rule.Patrol(waypoints, dock_x, dock_y, speed, undock_distance, self._enter, self._send_goal,
                                    rest_on_dock)
-        self._client = actionlib.SimpleActionClient(topics.ACTION, battery_simAction)
-        self._cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=1)
+        self._client = actionlib.SimpleActionClient(ros_names.ACTION, battery_simAction)
+        self._cmd_pub = rospy.Publisher(ros_names.CMD_VEL, Twist, queue_size=1)
         self._phase_pub = rospy.Publisher('patrol_and_dock/phase', String, queue_size=1, latch=True)
         self._subs = [
-            rospy.Subscriber(topics.ODOM, Odometry, self._on_odom, queue_size=1),
-            rospy.Subscriber(topics.BATTERY_LOW, Bool, self._on_low, queue_size=1),
-            rospy.Subscriber(topics.CHARGER_CONTACT, Bool, self._on_contact, queue_size=1),
-            rospy.Subscriber(topics.BATTERY_STATUS, BatteryState, self._on_battery, queue_size=1),
+            rospy.Subscriber(ros_names.ODOM, Odometry, self._on_odom, queue_size=1),
+            rospy.Subscriber(ros_names.BATTERY_LOW, Bool, self._on_low, queue_size=1),
+            rospy.Subscriber(ros_names.CHARGER_CONTACT, Bool, self._on_contact, queue_size=1),
+            rospy.Subscriber(ros_names.BATTERY_STATUS, BatteryState, self._on_battery, queue_size=1),
         ]
 
     def _wait_for_server(self, timeout_s):
@@ -109,12 +109,12 @@ class PatrolAndDock:
 
     def spin(self):
         if not self._wait_for_server(STARTUP_WAIT_S):
-            rospy.logfatal('no action server %s after %g s', rospy.resolve_name(topics.ACTION), STARTUP_WAIT_S)
+            rospy.logfatal('no action server %s after %g s', rospy.resolve_name(ros_names.ACTION), STARTUP_WAIT_S)
             return
         try:
-            rospy.wait_for_message(topics.BATTERY_STATUS, BatteryState, timeout=30.0)
+            rospy.wait_for_message(ros_names.BATTERY_STATUS, BatteryState, timeout=30.0)
         except rospy.ROSException:
-            rospy.logwarn('no %s after 30 s: patrolling without the level', rospy.resolve_name(topics.BATTERY_STATUS))
+            rospy.logwarn('no %s after 30 s: patrolling without the level', rospy.resolve_name(ros_names.BATTERY_STATUS))
         self._patrol.start()
         rate = rospy.Rate(rule.CONTROL_RATE_HZ, reset=True)   # ROS time; reset: a /clock jump back restarts it
         last = rospy.get_time()

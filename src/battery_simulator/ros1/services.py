@@ -8,7 +8,7 @@ refusal replies success false with core/battery.py's reason.
   - ``battery_simulator/set_charging`` (std_srvs/SetBool): as a charger contact change
   - ``battery_simulator/set_state`` (battery_simulator/SetState): percentage, temperature, health, gauge error
   - ``battery_simulator/reset`` (std_srvs/Trigger): back to the start-up state, mode kept
-  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): core/names.py FAULTS
+  - ``battery_simulator/inject_fault`` (battery_simulator/InjectFault): core/status_codes.py FAULTS
   - ``battery_simulator/predict`` (battery_simulator/Predict): what a plan of loads (and a charge after it) would
     do, from a copy of the model (core/prediction.py), computed in the process's prediction workers
     (prediction_service.py); changes nothing, so it replies once computed
@@ -18,7 +18,7 @@ from dynamic_reconfigure.server import Server as ReconfigureServer
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
 from battery_simulator.cfg import BatterySimConfig
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.core.battery import MOTION_LOAD, BatteryError
 from battery_simulator.ros1 import prediction_service
 from battery_simulator.srv import InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState, SetStateResponse
@@ -36,12 +36,12 @@ class BatteryServices:
         self._node_name = node_name
         self._reconfigure = None
         self._services = [
-            rospy.Service(namespace + topics.SET_LOAD, SetLoad, self._set_load),
-            rospy.Service(namespace + topics.SET_CHARGING, SetBool, self._set_charging),
-            rospy.Service(namespace + topics.SET_STATE, SetState, self._set_state),
-            rospy.Service(namespace + topics.RESET, Trigger, self._reset),
-            rospy.Service(namespace + topics.INJECT_FAULT, InjectFault, self._inject_fault),
-            prediction_service.advertise(namespace + topics.PREDICT, self._predict),
+            rospy.Service(namespace + ros_names.SET_LOAD, SetLoad, self._set_load),
+            rospy.Service(namespace + ros_names.SET_CHARGING, SetBool, self._set_charging),
+            rospy.Service(namespace + ros_names.SET_STATE, SetState, self._set_state),
+            rospy.Service(namespace + ros_names.RESET, Trigger, self._reset),
+            rospy.Service(namespace + ros_names.INJECT_FAULT, InjectFault, self._inject_fault),
+            prediction_service.advertise(namespace + ros_names.PREDICT, self._predict),
         ]
 
     def start_live_settings(self):

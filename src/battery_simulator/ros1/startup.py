@@ -8,7 +8,7 @@ import time
 import rosgraph
 import rospy
 
-from battery_simulator.core.parameters import is_number, number_from_text
+from battery_simulator.core.parameter_rules import is_number, number_from_text
 from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
 
@@ -34,7 +34,7 @@ def checked_param(name, default, check, allowed):
 
 
 def read_private_settings(settings):
-    """{name: value} of core/settings.py Settings read as private parameters (``~name``), checked."""
+    """{name: value} of core/node_settings.py Settings read as private parameters (``~name``), checked."""
     return {setting.name: checked_param('~' + setting.name, setting.default, setting.check, setting.allowed)
             for setting in settings}
 

@@ -35,9 +35,9 @@ from diagnostic_updater import DiagnosticStatusWrapper
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 
-from battery_simulator.core import topics
-from battery_simulator.core.names import DIAGNOSTIC_SUFFIX
-from battery_simulator.core.settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
+from battery_simulator.core import ros_names
+from battery_simulator.core.node_settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
+from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros1.log import RobotLog
@@ -47,7 +47,7 @@ from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop
 
 
 def read_settings():
-    """All start-up parameters (core/settings.py PUBLISHER_SETTINGS), checked; raises StartupError."""
+    """All start-up parameters (core/node_settings.py PUBLISHER_SETTINGS), checked; raises StartupError."""
     try:
         return check_publisher_settings(read_private_settings(PUBLISHER_SETTINGS),
                                         lambda name: rospy.resolve_name('~' + name), lambda name: '~' + name)
@@ -75,13 +75,13 @@ class BatteryStatePublisher:
         self._log = log or RobotLog()
         self._lock = threading.Lock()
         self._rules = StatusRules(stale_timeout, low_percentage, critical_percentage, hysteresis, self._log,
-                                  namespace + topics.STATE_TOPIC, 'the battery_simulator server')
-        self._pubs = [rospy.Publisher(namespace + topics.BATTERY_STATUS, BatteryState, queue_size=10)]
+                                  namespace + ros_names.STATE_TOPIC, 'the battery_simulator server')
+        self._pubs = [rospy.Publisher(namespace + ros_names.BATTERY_STATUS, BatteryState, queue_size=10)]
         if battery_state_topic:   # the same message for the readers of battery_state (opennav_docking)
-            self._pubs.append(rospy.Publisher(topics.robot_topic(namespace, battery_state_topic), BatteryState,
+            self._pubs.append(rospy.Publisher(ros_names.robot_topic(namespace, battery_state_topic), BatteryState,
                                               queue_size=10))
         self._alarm_pubs = {name: rospy.Publisher(namespace + topic, Bool, queue_size=1, latch=True)
-                            for name, topic in (('low', topics.BATTERY_LOW), ('critical', topics.BATTERY_CRITICAL))}
+                            for name, topic in (('low', ros_names.BATTERY_LOW), ('critical', ros_names.BATTERY_CRITICAL))}
         for publisher in self._alarm_pubs.values():
             publisher.publish(Bool(data=False))
         self.acknowledge = self._acknowledge_on_topic
@@ -90,8 +90,8 @@ class BatteryStatePublisher:
 
     def follow_topic(self):
         """Take the server's state from its topic (a server in another process) and acknowledge on a topic."""
-        self._sent_pub = rospy.Publisher(self._namespace + topics.STATUS_SENT, UInt64, queue_size=10)
-        self._sub = rospy.Subscriber(self._namespace + topics.STATE_TOPIC, BatterySimState,
+        self._sent_pub = rospy.Publisher(self._namespace + ros_names.STATUS_SENT, UInt64, queue_size=10)
+        self._sub = rospy.Subscriber(self._namespace + ros_names.STATE_TOPIC, BatterySimState,
                                      lambda msg: self.on_state(ReceivedState(msg)), queue_size=10)
 
     def _acknowledge_on_topic(self, update):

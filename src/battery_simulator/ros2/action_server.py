@@ -18,9 +18,9 @@ from rclpy.task import Future
 from std_msgs.msg import Bool
 
 from battery_simulator.action import BatterySim
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.core.battery import BatteryError, Goal, GoalEnd, parse_mode
-from battery_simulator.core.battery_model import Mode
+from battery_simulator.core.battery_states import Mode
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros2.messages import SimState
 from battery_simulator.ros2.qos import LATCHED_QOS
@@ -57,15 +57,15 @@ class BatterySimServer:
         self._setting_mode = False
         self._finishing = False   # after finish(): the server is shutting down, new goals are rejected
         ns = namespace
-        self._state_pub = node.create_publisher(BatterySimState, ns + topics.STATE_TOPIC, LATCHED_QOS)
-        self._action = ActionServer(node, BatterySim, ns + topics.ACTION, execute_callback=self._execute,
+        self._state_pub = node.create_publisher(BatterySimState, ns + ros_names.STATE_TOPIC, LATCHED_QOS)
+        self._action = ActionServer(node, BatterySim, ns + ros_names.ACTION, execute_callback=self._execute,
                                     goal_callback=self._goal_response,
                                     handle_accepted_callback=self._accepted,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT)
-        self._cmd_vel_name = ns + topics.CMD_VEL
-        self._cmd_vel = VelocityInput(node, ns + topics.CMD_VEL, self._on_cmd_vel,   # Twist or TwistStamped
+        self._cmd_vel_name = ns + ros_names.CMD_VEL
+        self._cmd_vel = VelocityInput(node, ns + ros_names.CMD_VEL, self._on_cmd_vel,   # Twist or TwistStamped
                                       graph_types=graph_types)
-        node.create_subscription(Bool, ns + topics.CHARGER_CONTACT, self._on_contact, 10)
+        node.create_subscription(Bool, ns + ros_names.CHARGER_CONTACT, self._on_contact, 10)
         self.services = BatteryServices(node, ns, self)
 
     # -- parameters (the node owns them: one battery per node) ----------------------------------

@@ -28,10 +28,11 @@ from rclpy.node import Node
 from rcl_interfaces.msg import ParameterDescriptor
 
 from battery_simulator.core.battery import LIVE_PARAMETERS, Battery, BatteryError, parse_mode
-from battery_simulator.core.battery_log import resume_battery, say_ready
-from battery_simulator.core.parameters import ParameterError, load_yaml, with_gauge_config
-from battery_simulator.core.settings import (BATTERY_SETTINGS, GAUGE_CONFIG, PUBLISHER_SETTINGS, Setting, SettingError,
-                                             check_publisher_settings)
+from battery_simulator.core.config_files import load_yaml, with_gauge_config
+from battery_simulator.core.node_settings import (BATTERY_SETTINGS, GAUGE_CONFIG, PUBLISHER_SETTINGS, Setting,
+                                                  SettingError, check_publisher_settings)
+from battery_simulator.core.parameter_rules import ParameterError
+from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.state_file import StateFileError, StateFileKeeper, check_state_file
 from battery_simulator.ros2 import services
 from battery_simulator.ros2.action_server import MODE_PARAMETER, BatterySimServer, mode_refusal

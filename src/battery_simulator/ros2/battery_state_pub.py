@@ -19,9 +19,9 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from battery_simulator.core.parameters import is_number
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.msg import BatterySimState
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.ros2.battery_sim import OneBattery, finish, publish_diagnostics, read_publisher_settings
 from battery_simulator.ros2.log import NodeLog
 from battery_simulator.ros2.battery_claims import BatteryClaim, claimed_by
@@ -50,7 +50,7 @@ def other_state_pub(node):
 def status_published_by_battery(node, executor, timeout_s=1.0):
     """Whether this namespace's battery_simulator node publishes battery_status itself (a fleet host's
     robot does; battery_sim's battery leaves it to its battery_state_pub), looked for up to ``timeout_s``."""
-    topic = node.resolve_topic_name(topics.BATTERY_STATUS)
+    topic = node.resolve_topic_name(ros_names.BATTERY_STATUS)
     namespace = node.get_namespace()
     deadline = time.monotonic() + timeout_s
     while True:
@@ -102,12 +102,12 @@ def main(args=None):
                                            node.get_namespace(), host))
                 publisher = read_publisher_settings(node)
                 status = BatteryStatePublisher(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **publisher)
-                node.create_subscription(BatterySimState, topics.STATE_TOPIC,
+                node.create_subscription(BatterySimState, ros_names.STATE_TOPIC,
                                          lambda msg: status.on_state(ReceivedState(msg), msg.publish_now),
                                          STATUS_QOS)
                 node.create_timer(1.0 / publisher['rate'], status.publish_once, clock=steady_clock())
                 publish_diagnostics(node, [status])
-                log.info('battery_state_pub: following %s', node.resolve_topic_name(topics.STATE_TOPIC))
+                log.info('battery_state_pub: following %s', node.resolve_topic_name(ros_names.STATE_TOPIC))
             else:
                 claim = BatteryClaim(node, [node.get_namespace()], node.get_fully_qualified_name())
                 claim.wait(executor)

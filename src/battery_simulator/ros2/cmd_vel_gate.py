@@ -6,7 +6,7 @@ command and drops every command until the battery is no longer empty. A command 
 value is never relayed: a zero command goes out instead, once per run of them, with a log line
 (robot/cmd_vel_gate.py). Remap ``cmd_vel_in`` and ``cmd_vel_out`` with ``-r``.
 """
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.msg import BatterySimState
 from battery_simulator.robot import cmd_vel_gate as rule
 from battery_simulator.ros2.qos import LATCHED_QOS
@@ -19,7 +19,7 @@ class CmdVelGate:
         self._node = node
         self._gate = rule.CmdVelGate()
         self._pub = TwistPublisher(node, cmd_vel_out)
-        self._state_sub = node.create_subscription(BatterySimState, topics.STATE_TOPIC, self._on_state, LATCHED_QOS)
+        self._state_sub = node.create_subscription(BatterySimState, ros_names.STATE_TOPIC, self._on_state, LATCHED_QOS)
         self._cmd_sub = TwistSubscriber(node, cmd_vel_in, self._on_cmd_vel)
 
     def _on_state(self, state):

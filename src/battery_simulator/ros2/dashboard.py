@@ -57,11 +57,11 @@ from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
                                                 bridge_tornado_logs, chart_library_problem, make_app, server_options,
                                                 start_pushing)
-from battery_simulator.web.dashboard_model import FLEET_STATE_TYPE, fleet_battery_topic, namespace_of
 from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, LEVEL_KINDS, NODE_NAME, SERVICE_WAIT_S,
                                                    battery_values, call_line, finish_settings, fleet_host,
                                                    listen_problem, ready_line, request_fields, ros1_type_name,
                                                    service_name, sim_values, subscriptions)
+from battery_simulator.web.topic_discovery import FLEET_STATE_TYPE, fleet_battery_topic, namespace_of
 
 SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
 #: every subscription takes what its publishers offer: a driver's best-effort battery_status as well as the

@@ -26,8 +26,9 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from battery_simulator.core.parameters import default_config_path, is_number
-from battery_simulator.core.settings import Setting
+from battery_simulator.core.config_files import default_config_path
+from battery_simulator.core.node_settings import Setting
+from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.robot import base, clock as clock_rule, dock_contact, patrol
 from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s
 from battery_simulator.ros2.battery_sim import OneBattery, finish

@@ -10,7 +10,7 @@ transient local: ROS 2's latched) on every change and twice a second of ROS time
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool
 
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import dock_contact as rule
 from battery_simulator.ros2.qos import LATCHED_QOS
 from battery_simulator.ros2.robot_node import run_node
@@ -20,8 +20,8 @@ class DockContact:
     def __init__(self, node, dock_x, dock_y, radius, max_speed):
         self._node = node
         self._contact = rule.DockContact(dock_x, dock_y, radius, max_speed)
-        self._pub = node.create_publisher(Bool, topics.CHARGER_CONTACT, LATCHED_QOS)
-        self._sub = node.create_subscription(Odometry, topics.ODOM, self._on_odom, 10)
+        self._pub = node.create_publisher(Bool, ros_names.CHARGER_CONTACT, LATCHED_QOS)
+        self._sub = node.create_subscription(Odometry, ros_names.ODOM, self._on_odom, 10)
         self._pub.publish(Bool(data=False))
         self._timer = node.create_timer(rule.REPEAT_PERIOD_S, self._repeat)   # ROS time, as the robot moves
 

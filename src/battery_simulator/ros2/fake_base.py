@@ -11,7 +11,7 @@ It integrates the latest ``cmd_vel`` (geometry_msgs/msg/Twist or TwistStamped, h
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import base
 from battery_simulator.ros2.robot_node import run_node
 from battery_simulator.ros2.twist import TwistSubscriber
@@ -31,11 +31,11 @@ class FakeBase:
         self._node = node
         self._frames = (odom_frame, base_frame)
         self._base = base.Base(x, y, yaw, cmd_vel_timeout)
-        self._odom_pub = node.create_publisher(Odometry, topics.ODOM, 10)
+        self._odom_pub = node.create_publisher(Odometry, ros_names.ODOM, 10)
         self._tf_pub = node.create_publisher(TFMessage, '/tf', 100) if TFMessage is not None else None
         if self._tf_pub is None:
             node.get_logger().info('no tf2_msgs here: odometry only, no tf odom -> %s' % base_frame)
-        self._sub = TwistSubscriber(node, topics.CMD_VEL, self._on_cmd_vel)
+        self._sub = TwistSubscriber(node, ros_names.CMD_VEL, self._on_cmd_vel)
         self._timer = node.create_timer(1.0 / rate, self._step)   # the node's clock: ROS time under use_sim_time
 
     def _on_cmd_vel(self, twist, msg):

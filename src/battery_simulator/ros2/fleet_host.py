@@ -33,10 +33,10 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from battery_simulator.core.battery import BatteryError
-from battery_simulator.core.battery_log import resume_battery, say_ready
+from battery_simulator.core.config_files import load_yaml
 from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, is_first,
                                           is_fleet_rate, robot_configs, robot_params, robot_specs)
-from battery_simulator.core.parameters import load_yaml
+from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_s
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.action_server import BatterySimServer

@@ -22,7 +22,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, String
 
 from battery_simulator.action import BatterySim
-from battery_simulator.core import topics
+from battery_simulator.core import ros_names
 from battery_simulator.robot import patrol as rule
 from battery_simulator.ros2.qos import LATCHED_QOS, STATUS_QOS
 from battery_simulator.ros2.robot_node import run_node
@@ -48,14 +48,14 @@ class PatrolAndDock:
         self._due_step_s = None   # a control step waiting for a fresh pose
         self._patrol = rule.Patrol(waypoints, dock_x, dock_y, speed, undock_distance, self._enter, self._send_goal,
                                    rest_on_dock)
-        self._client = ActionClient(node, BatterySim, topics.ACTION)
-        self._cmd_pub = node.create_publisher(Twist, topics.CMD_VEL, 1)
+        self._client = ActionClient(node, BatterySim, ros_names.ACTION)
+        self._cmd_pub = node.create_publisher(Twist, ros_names.CMD_VEL, 1)
         self._phase_pub = node.create_publisher(String, PHASE_TOPIC, LATCHED_QOS)
         self._subs = [
-            node.create_subscription(Odometry, topics.ODOM, self._on_odom, 1),
-            node.create_subscription(Bool, topics.BATTERY_LOW, self._on_low, LATCHED_QOS),
-            node.create_subscription(Bool, topics.CHARGER_CONTACT, self._on_contact, LATCHED_QOS),
-            node.create_subscription(BatteryState, topics.BATTERY_STATUS, self._on_battery, STATUS_QOS),
+            node.create_subscription(Odometry, ros_names.ODOM, self._on_odom, 1),
+            node.create_subscription(Bool, ros_names.BATTERY_LOW, self._on_low, LATCHED_QOS),
+            node.create_subscription(Bool, ros_names.CHARGER_CONTACT, self._on_contact, LATCHED_QOS),
+            node.create_subscription(BatteryState, ros_names.BATTERY_STATUS, self._on_battery, STATUS_QOS),
         ]
         self._started_at = time.monotonic()
         self._startup = node.create_timer(STARTUP_CHECK_S, self._wait_for_battery, clock=steady_clock())
@@ -67,7 +67,7 @@ class PatrolAndDock:
         if not self._client.server_is_ready():
             if waited_s > STARTUP_WAIT_S:
                 self._node.get_logger().fatal('no action server %s after %g s' % (
-                    self._node.resolve_topic_name(topics.ACTION), STARTUP_WAIT_S))
+                    self._node.resolve_topic_name(ros_names.ACTION), STARTUP_WAIT_S))
                 self._node.destroy_timer(self._startup)
                 self._node.context.try_shutdown()   # the process ends, as ROS 1's node does
             return
@@ -75,7 +75,7 @@ class PatrolAndDock:
             return
         if not self._status_seen:
             self._node.get_logger().warning('no %s after %g s: patrolling without the level' % (
-                self._node.resolve_topic_name(topics.BATTERY_STATUS), STARTUP_WAIT_S))
+                self._node.resolve_topic_name(ros_names.BATTERY_STATUS), STARTUP_WAIT_S))
         self._node.destroy_timer(self._startup)
         self._patrol.start()
         self._control_timer = self._node.create_timer(1.0 / rule.CONTROL_RATE_HZ, self._on_tick)   # ROS time

@@ -18,7 +18,7 @@ from rclpy.qos import qos_profile_services_default
 from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
-from battery_simulator.core import prediction_worker, topics
+from battery_simulator.core import prediction_worker, ros_names
 from battery_simulator.core.battery import MOTION_LOAD, BatteryError
 from battery_simulator.core.prediction import FIELDS, MAX_SEGMENTS, PredictionError, too_many_segments
 from battery_simulator.core.prediction_worker import Busy, WorkerFailed
@@ -37,18 +37,18 @@ class BatteryServices:
         self.node, self.server, self.battery = node, server, server.battery
         self._key = node.get_namespace().rstrip('/') + '/' + namespace
         ns = namespace
-        node.create_service(SetLoad, ns + topics.SET_LOAD, self._set_load)
-        node.create_service(SetBool, ns + topics.SET_CHARGING, self._set_charging)
-        node.create_service(SetState, ns + topics.SET_STATE, self._set_state)
-        node.create_service(Trigger, ns + topics.RESET, self._reset)
-        node.create_service(InjectFault, ns + topics.INJECT_FAULT, self._inject_fault)
+        node.create_service(SetLoad, ns + ros_names.SET_LOAD, self._set_load)
+        node.create_service(SetBool, ns + ros_names.SET_CHARGING, self._set_charging)
+        node.create_service(SetState, ns + ros_names.SET_STATE, self._set_state)
+        node.create_service(Trigger, ns + ros_names.RESET, self._reset)
+        node.create_service(InjectFault, ns + ros_names.INJECT_FAULT, self._inject_fault)
         # its own reentrant group: a coroutine holds its callback group until it ends, so in the node's
         # (mutually exclusive) group one prediction held up every other request and the battery's contact,
         # cmd_vel and timers (contact -> battery_status 4.0 s), and requests waiting for it overflowed the
         # request queue (10: 40 predicts at once, 11 answered, 29 never). Here each is taken at once and
         # answered within 10 s (the plan's answer, or busy: prediction_worker's bounds).
         self._predict_group = ReentrantCallbackGroup()
-        node.create_service(Predict, ns + topics.PREDICT, self._predict, qos_profile=PREDICT_QOS,
+        node.create_service(Predict, ns + ros_names.PREDICT, self._predict, qos_profile=PREDICT_QOS,
                             callback_group=self._predict_group)
         # the workers' answers are handed to the waiting requests in the executor's thread (rclpy's futures
         # are not for other threads: completed there, some requests were never answered), woken by a guard

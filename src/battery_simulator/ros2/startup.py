@@ -1,4 +1,4 @@
-"""Start-up of the rclpy nodes: declared parameters checked by core/settings.py's rules, one fatal
+"""Start-up of the rclpy nodes: declared parameters checked by core/node_settings.py's rules, one fatal
 line and a non-zero exit for a bad value, a clean end on SIGINT or SIGTERM at any moment.
 
 rclpy's own signal handlers are not installed (``init``): they shut the context down before any code of
@@ -24,8 +24,8 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
-from battery_simulator.core.parameters import number_from_text
-from battery_simulator.core.settings import SettingError, check_setting
+from battery_simulator.core.node_settings import SettingError, check_setting
+from battery_simulator.core.parameter_rules import number_from_text
 from battery_simulator.ros2.rcl_args import rcl_problem
 
 EXIT_BAD_PARAMETER = 2

@@ -10,8 +10,8 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
-from battery_simulator.core import topics
-from battery_simulator.core.names import DIAGNOSTIC_SUFFIX
+from battery_simulator.core import ros_names
+from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.ros2.qos import LATCHED_QOS, STATUS_QOS
 
@@ -27,12 +27,12 @@ class BatteryStatePublisher:
         self._diagnostic_name = diagnostic_name + DIAGNOSTIC_SUFFIX
         self._rules = StatusRules(stale_timeout, low_percentage, critical_percentage, hysteresis, log,
                                   'the battery', 'the battery')
-        self._pub = node.create_publisher(BatteryState, namespace + topics.BATTERY_STATUS, STATUS_QOS)
+        self._pub = node.create_publisher(BatteryState, namespace + ros_names.BATTERY_STATUS, STATUS_QOS)
         # the same message for the readers of battery_state (opennav_docking), sent while one listens
-        self._twin = node.create_publisher(BatteryState, topics.robot_topic(namespace, battery_state_topic),
+        self._twin = node.create_publisher(BatteryState, ros_names.robot_topic(namespace, battery_state_topic),
                                            STATUS_QOS) if battery_state_topic else None
         self._alarm_pubs = {name: node.create_publisher(Bool, namespace + topic, LATCHED_QOS)
-                            for name, topic in (('low', topics.BATTERY_LOW), ('critical', topics.BATTERY_CRITICAL))}
+                            for name, topic in (('low', ros_names.BATTERY_LOW), ('critical', ros_names.BATTERY_CRITICAL))}
         for publisher in self._alarm_pubs.values():
             publisher.publish(Bool(data=False))
 

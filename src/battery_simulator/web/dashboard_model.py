@@ -3,22 +3,18 @@
 The node hands in plain values (a BatteryState as a dict of numbers, a Bool, a
 few fields of the simulator's state) with the wall time they arrived; the web
 app reads formatted records and histories out. Every rule the page shows lives
-here: topic discovery, stale, low / critical, time remaining, the text of each
-field.
+here or in the two modules beside it: web/topic_discovery.py (which topics are batteries),
+web/dashboard_texts.py (the text of each field); here stale, low / critical, time remaining.
 """
 import bisect
 import collections
-import functools
-import re
 
-from battery_simulator.core import names
-from battery_simulator.core.parameters import is_number
-from battery_simulator.core.settings import PUBLISHER_SETTINGS
-
-BATTERY_TYPE = 'sensor_msgs/BatteryState'
-BOOL_TYPE = 'std_msgs/Bool'
-SIM_STATE_TYPE = 'battery_simulator/BatterySimState'
-FLEET_STATE_TYPE = 'battery_simulator/BatteryFleetState'
+from battery_simulator.core import status_codes
+from battery_simulator.core.node_settings import PUBLISHER_SETTINGS
+from battery_simulator.core.parameter_rules import is_number
+from battery_simulator.web.dashboard_texts import (SIM_CHARGING_STATE, SUPPLY_HEALTH, SUPPLY_STATUS, duration_text,
+                                                   in_range, json_number, natural_key, number_text, percentage_text)
+from battery_simulator.web.topic_discovery import fleet_battery_topic
 
 STALE_MIN_S = 3.0        # stale after no message for max(this, STALE_PERIODS periods)
 STALE_PERIODS = 3
@@ -27,89 +23,11 @@ LOW_FRACTION, CRITICAL_FRACTION = (next(s.default for s in PUBLISHER_SETTINGS if
                                    for name in ('low_percentage', 'critical_percentage'))
 HISTORY_POINTS = 1200    # at most this many chart points per battery over ~history_s
 PERIOD_SAMPLES = 8       # arrival intervals the period estimate takes the median of
-
-#: sensor_msgs/BatteryState.power_supply_status -> the page's status
-SUPPLY_STATUS = names.SUPPLY_STATUS_TEXT
-#: BatterySimState.charging_state -> the page's status (the simulator knows Empty): the page writes
-#: "Not charging" as a sentence, the simulator's texts are the diagnostics' "Not Charging"
-SIM_CHARGING_STATE = {state: state.capitalize() for state in names.CHARGING_STATES}
-#: sensor_msgs/BatteryState.power_supply_health: the diagnostics' texts; unknown is '-' as every unknown field
-SUPPLY_HEALTH = {code: text for code, text in names.HEALTH_TEXT.items() if code != names.SupplyHealth.UNKNOWN}
 #: the numbers a BatteryState gives (pack units: V, A, degC, Ah; percentage 0..1)
 BATTERY_FIELDS = ('percentage', 'voltage', 'current', 'temperature', 'charge', 'capacity', 'design_capacity')
 CHART_FIELDS = ('percentage', 'voltage', 'current', 'temperature')
 #: the faults a simulated battery knows (the page gets them in its snapshot)
-FAULTS = tuple(sorted(names.FAULTS))
-
-
-# -- text ----------------------------------------------------------------------
-
-
-#: beyond this magnitude a number is shown in scientific notation (3 significant digits): a driver's
-#: 3.4e38 would otherwise be a 40-digit number overflowing the card
-MAX_FIXED = 1e5
-#: what a battery can plausibly report, (low, high) inclusive; a value outside is shown marked "out of range"
-#: (a voltage of 0 or below too: no pack reads that; NaN is the message's "not measured")
-PLAUSIBLE = {'percentage': (0.0, 100.0), 'voltage': (0.0, 1000.0), 'current': (-1000.0, 1000.0),
-             'temperature': (-60.0, 150.0), 'charge': (0.0, 1e4), 'capacity': (0.0, 1e4),
-             'cycle_count': (0.0, 1e6), 'state_of_health': (0.0, 100.0)}
-ABOVE_LOW = ('voltage',)   # fields whose low bound itself is out of range
-OUT_OF_RANGE = ' (out of range)'
-_DIGITS = re.compile(r'[0-9]+')
-MAX_DURATION_H = 9999      # a longer time remaining is shown as "> 9999 h"
-
-
-@functools.lru_cache(maxsize=8192)   # every view of every battery carries it: 1000 a second at 1000 robots
-def natural_key(topic):
-    """A string whose plain (code point) order is the natural order of topic names: each run of digits
-    becomes its length (3 digits) and then its digits, leading zeros dropped, so that '/robot2/...' sorts
-    before '/robot10/...'. The model sorts by it and the page places its cards by it (the view's
-    'order'), so both show one order."""
-    return _DIGITS.sub(lambda match: '%03d%s' % (len(match.group().lstrip('0') or '0'),
-                                                  match.group().lstrip('0') or '0'), topic)
-
-
-def in_range(field, value):
-    """A finite ``value`` of ``field`` (percentage in %) within PLAUSIBLE."""
-    low, high = PLAUSIBLE[field]
-    return is_number(value) and (low < value if field in ABOVE_LOW else low <= value) and value <= high
-
-
-def number_text(value, digits, unit, field=None):
-    """'12.31 V'; '3.4e+38 V' beyond MAX_FIXED; ' (out of range)' appended outside PLAUSIBLE[field];
-    '-' for NaN, infinity or nothing."""
-    if not is_number(value):
-        return '-'
-    text = '%.*f' % (digits, value) if abs(value) < MAX_FIXED else '%.3g' % value
-    if unit:
-        text += ' ' + unit
-    if field is not None and not in_range(field, value):
-        text += OUT_OF_RANGE
-    return text
-
-
-def percentage_text(fraction):
-    """BatteryState.percentage (0..1) as '63.2 %'."""
-    return number_text(100.0 * fraction if is_number(fraction) else None, 1, '%', 'percentage')
-
-
-def duration_text(seconds):
-    """'2 h 05 min', '7 min', '40 s'; '-' when unknown."""
-    if not is_number(seconds) or seconds < 0:
-        return '-'
-    if seconds < 60:
-        return '%d s' % seconds
-    minutes = int(round(seconds / 60.0))
-    if minutes < 60:
-        return '%d min' % minutes
-    if minutes >= 60 * MAX_DURATION_H:
-        return '> %d h' % MAX_DURATION_H
-    return '%d h %02d min' % divmod(minutes, 60)
-
-
-def json_number(value):
-    """A number JSON can carry (NaN and infinities become null)."""
-    return float(value) if is_number(value) else None
+FAULTS = tuple(sorted(status_codes.FAULTS))
 
 
 # -- rules -----------------------------------------------------------------------
@@ -157,57 +75,14 @@ def time_remaining_s(values, status):
     return None
 
 
-def discover(published):
-    """The batteries in the master's [(topic, type)] list, and what to subscribe for each.
-
-    Returns {battery topic: {'low': topic, 'critical': topic, 'state': topic}} (only the
-    extras that exist) and {fleet state topic: namespace of its host}. A battery's extras
-    live in its namespace (``<ns>/battery_low``, ``<ns>/battery_critical``,
-    ``<ns>/battery_simulator/state``); they belong to it when it is the namespace's
-    ``battery_status`` or the namespace's only battery. A ``<ns>/battery_state`` beside a
-    ``<ns>/battery_status`` is the simulator's twin of it (what opennav_docking reads): one battery, shown once.
-    """
-    types = {}
-    for topic, topic_type in published:
-        types[topic] = topic_type
-    batteries = sorted(topic for topic, topic_type in types.items() if topic_type == BATTERY_TYPE
-                       and not (topic.endswith('/battery_state')
-                                and types.get(topic[:-len('battery_state')] + 'battery_status') == BATTERY_TYPE))
-    per_namespace = collections.Counter(namespace_of(topic) for topic in batteries)
-    found = {}
-    for topic in batteries:
-        namespace = namespace_of(topic)
-        extras = {}
-        if topic.endswith('/battery_status') or per_namespace[namespace] == 1:
-            for key, name, wanted in (('low', 'battery_low', BOOL_TYPE), ('critical', 'battery_critical', BOOL_TYPE),
-                                      ('state', 'battery_simulator/state', SIM_STATE_TYPE)):
-                extra = namespace.rstrip('/') + '/' + name
-                if types.get(extra) == wanted:
-                    extras[key] = extra
-        found[topic] = extras
-    fleets = {topic: namespace_of(namespace_of(topic).rstrip('/'))
-              for topic, topic_type in types.items() if topic_type == FLEET_STATE_TYPE}
-    return found, fleets
-
-
-def namespace_of(name):
-    """'/robot3/battery_status' -> '/robot3/'; '/battery_status' -> '/'."""
-    return name[:name.rstrip('/').rfind('/') + 1] or '/'
-
 
 def _same_stamp(stamp, shown):
     """A known header stamp (not 0: a publisher that leaves it unset) equal to the one shown."""
     return is_number(stamp) and stamp > 0.0 and stamp == shown
 
-
-def fleet_battery_topic(host_namespace, robot_name):
-    """The battery_status topic of robot ``robot_name`` of a fleet host in ``host_namespace``."""
-    return host_namespace + robot_name.strip('/') + '/battery_status'
-
-
 # -- one battery -------------------------------------------------------------------
 
-class BatteryRecord:
+class DashboardBattery:
     """One battery topic: its latest values, extras, arrival times and history."""
 
     def __init__(self, topic, now):
@@ -349,7 +224,7 @@ class DashboardModel:
     def _record(self, topic, now, changed=True):
         record = self.records.get(topic)
         if record is None:
-            record = self.records[topic] = BatteryRecord(topic, now)
+            record = self.records[topic] = DashboardBattery(topic, now)
             self._removed.discard(topic)
             changed = True
         if changed:

@@ -7,17 +7,18 @@ graph, the services the controls call and the lines a node says.
 import errno
 import math
 
-from battery_simulator.core.parameters import is_number
-from battery_simulator.core.settings import Setting
-from battery_simulator.core import topics
-from battery_simulator.web.dashboard_model import BATTERY_FIELDS, discover
+from battery_simulator.core import ros_names
+from battery_simulator.core.node_settings import Setting
+from battery_simulator.core.parameter_rules import is_number
+from battery_simulator.web.dashboard_model import BATTERY_FIELDS
+from battery_simulator.web.topic_discovery import discover
 
 NODE_NAME = 'battery_dashboard'
 #: a control's service not there within this: unreachable (502); the web app's CALL_TIMEOUT_S bounds the call
 SERVICE_WAIT_S = 2.0
 #: action -> the service's name relative to the battery's namespace (ROS 1 and ROS 2 types of the same names)
-SERVICE_NAMES = {'set_state': topics.SET_STATE, 'set_charging': topics.SET_CHARGING,
-                 'inject_fault': topics.INJECT_FAULT}
+SERVICE_NAMES = {'set_state': ros_names.SET_STATE, 'set_charging': ros_names.SET_CHARGING,
+                 'inject_fault': ros_names.INJECT_FAULT}
 #: the extras beside a battery, by kind: (what discover calls them, message type name)
 LEVEL_KINDS = ('low', 'critical')
 #: the simulator's fields of BatterySimState the model takes

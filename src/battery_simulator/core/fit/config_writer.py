@@ -1,12 +1,13 @@
 """The fitted battery as a config YAML (no ROS): the chemistry preset plus the fitted values, each
-commented with where it came from and its uncertainty, checked by core/parameters.py before it is written."""
+commented with where it came from and its uncertainty, checked by core/parameter_rules.py before it is written."""
 import contextlib
 import os
 
 import yaml
 
+from battery_simulator.core.config_files import from_mapping
 from battery_simulator.core.fit import FitError
-from battery_simulator.core.parameters import ParameterError, from_mapping
+from battery_simulator.core.parameter_rules import ParameterError
 
 #: the keys written, in this order (the ones the fit sets)
 ORDER = ('name', 'source', 'cells_series', 'cells_parallel', 'cell_capacity_ah', 'ocv_soc', 'ocv_voltage_v',

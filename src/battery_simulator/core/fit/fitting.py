@@ -18,7 +18,7 @@ import numpy as np
 from battery_simulator.core.fit import FitError
 from battery_simulator.core.fit.circuit import (Chemistry, counted_charge_ah, flowing_current, hat_basis,
                                                  log_arrays, regressors, state_of_charge, thermal)
-from battery_simulator.core.parameters import MAX_CELLS, ParameterError
+from battery_simulator.core.parameter_rules import MAX_CELLS, ParameterError
 
 #: the held-out part of each log (its last fraction), by default
 DEFAULT_HOLDOUT = 0.25

@@ -4,7 +4,7 @@
 'use strict';
 
 const FIELDS = ['percentage', 'status', 'voltage', 'current', 'temperature', 'time_remaining'];
-let faultNames = [];   // the simulator's faults, from the server's snapshot (core/names.py)
+let faultNames = [];   // the simulator's faults, from the server's snapshot (core/status_codes.py)
 const CHART_FIELDS = {percentage: '#2e7d32', voltage: '#1565c0', current: '#6a1b9a', temperature: '#e65100'};
 
 // The server's clock against ours: ages are shown from the server's own times.
@@ -115,7 +115,7 @@ function overviewPage() {
   }
 
   // the cards in the server's natural order (robot2 before robot10): each battery's 'order' is a key whose
-  // plain string order is that order (dashboard_model.natural_key)
+  // plain string order is that order (dashboard_texts.natural_key)
   function place(order, card) {
     let next = null;
     for (const entry of cards.values()) {
@@ -309,7 +309,7 @@ function batteryPage() {
     }
   }
 
-  // One button per fault the simulator knows (the server's snapshot lists them: core/names.py).
+  // One button per fault the simulator knows (the server's snapshot lists them: core/status_codes.py).
   function makeFaultButtons() {
     const faults = document.getElementById('faults');
     if (!faults || faults.dataset.made) return;   // a read-only page has no controls

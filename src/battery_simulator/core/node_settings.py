@@ -8,7 +8,8 @@ stops a node with one line: ``parameter NAME = VALUE is invalid: must be ALLOWED
 import re
 from collections import namedtuple
 
-from battery_simulator.core.parameters import default_config_path, is_number
+from battery_simulator.core.config_files import default_config_path
+from battery_simulator.core.parameter_rules import is_number
 
 
 class SettingError(ValueError):

@@ -5,7 +5,7 @@ sensor_msgs/BatteryState (the same numbers in ROS 1 and ROS 2), the
 diagnostics keys and their levels: the rospy nodes, the rclpy nodes, the
 fleet hosts and the dashboard all read them from here.
 """
-from battery_simulator.core.battery_model import Health, Status
+from battery_simulator.core.battery_states import Health, Status
 
 #: the faults inject_fault knows, with what each does
 FAULTS = {
