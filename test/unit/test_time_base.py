@@ -146,9 +146,6 @@ def delivered_readings(seed, offset_s, delay, stall_max_s, update_hz, speed=20.0
 @pytest.mark.parametrize('delay', ['stall', 'lag'])
 @pytest.mark.parametrize('stall_max_s', [0.3, 1.0])
 @pytest.mark.parametrize('update_hz', [2.0, 10.0])
-@pytest.mark.xfail(strict=False, reason='issue 40 item 15, open: the fix (a start holds its first steps) made the '
-                   'ROS 1 demo at speed 240 dock 4 points under its low level, so it was taken out; 16 of 24 '
-                   'cases count up to 3.3x one clock')
 def test_two_clocks_count_no_faster_than_one_whatever_the_delivery_delays(offset_s, delay, stall_max_s, update_hz):
     """Two clocks 600 s apart at 20x (test_hardening's), their messages delivered late and in bursts as on a
     loaded machine: the time counted stays within one clock's (before: 9.98 points where one clock drained
