@@ -37,7 +37,9 @@ def test_install_space_holds_scripts_launch_config_and_messages(workspace):
                    'battery_replay.py'):
         path = install / 'lib' / 'battery_simulator' / script
         assert path.is_file(), 'missing installed script %s' % path
-        assert path.read_text().startswith('#!/usr/bin/python3'), '%s not pinned to Debian python' % path
+        shebang = path.read_text().splitlines()[0]   # a node's may block SIGINT while Python starts (env -S)
+        assert shebang.startswith('#!') and shebang.endswith('/usr/bin/python3'), \
+            '%s not pinned to Debian python: %s' % (path, shebang)
     share = install / 'share' / 'battery_simulator'
     for relative in ('launch/sim.launch', 'config/battery.yaml', 'config/presets/lg_hg2_3s1p.yaml',
                      'action/battery_sim.action', 'package.xml'):
