@@ -1,5 +1,6 @@
 """Shared by the rostest nodes: bounded waits and a BatteryState recorder."""
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -9,6 +10,7 @@ import time
 import rospkg
 import rospy
 from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
 
 
 def result_name(default):
@@ -121,3 +123,21 @@ class SetStateProxy:
 
     def wait_for_service(self, timeout=None):
         return self._proxy.wait_for_service(timeout)
+
+
+def contact_delays(status, contact, toggles, timeout_s, robot=''):
+    """charger_contact (the publisher ``contact``) -> the status it asks for on battery_status (the Recorder
+    ``status``), wall s, ``toggles`` times, each waited for at most ``timeout_s``."""
+    delays = []
+    for index in range(toggles):
+        connected = index % 2 == 0
+        wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
+                  else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+        start, sent = status.count(), time.monotonic()
+        contact.publish(Bool(data=connected))
+        found = status.wait_new(start, lambda m: m.power_supply_status == wanted, timeout_s,
+                                (robot + ' status %d' % wanted).strip())
+        index = next(k for k, m in enumerate(status.since(start)) if m is found)
+        delays.append(status.arrival(start + index) - sent)
+        time.sleep(0.1 + 0.2 * random.random())   # different points of the update and publish periods
+    return delays

@@ -13,7 +13,6 @@ import concurrent.futures
 import json
 import math
 import os
-import random
 import select
 import signal
 import statistics
@@ -25,12 +24,11 @@ import unittest
 
 import rospy
 import rostest
-from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
 from battery_simulator.core.prediction import MAX_SEGMENTS
 from battery_simulator.srv import Predict, PredictRequest
-from rostest_helpers import Recorder, stop_process, wait_for
+from rostest_helpers import Recorder, contact_delays, stop_process, wait_for
 
 PREDICT = 'battery_simulator/predict'
 AT_ONCE = 40
@@ -125,20 +123,7 @@ class TestPredictionFlood(unittest.TestCase):
             ANSWER_WITHIN_S, ', '.join('%.1f s' % seconds for seconds in slow)))
 
     def contact_delays(self):
-        """charger_contact -> the status it asks for on battery_status, wall s, TOGGLES times."""
-        delays = []
-        for index in range(TOGGLES):
-            connected = index % 2 == 0
-            wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
-                      else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
-            start, sent = self.status.count(), time.monotonic()
-            self.contact.publish(Bool(data=connected))
-            found = self.status.wait_new(start, lambda m: m.power_supply_status == wanted, 20.0,
-                                         'status %d' % wanted)
-            index = next(k for k, m in enumerate(self.status.since(start)) if m is found)
-            delays.append(self.status.arrival(start + index) - sent)
-            time.sleep(0.1 + 0.2 * random.random())   # different points of the update and publish periods
-        return delays
+        return contact_delays(self.status, self.contact, TOGGLES, 20.0)
 
     def test_a_predict_flood_does_not_starve_its_battery(self):
         reference = self.contact_delays()

@@ -25,11 +25,10 @@ import unittest
 
 import rospy
 import rostest
-from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
 from battery_simulator.srv import Predict, PredictRequest
-from rostest_helpers import Recorder, stop_process, wait_for
+from rostest_helpers import Recorder, contact_delays, stop_process, wait_for
 
 THREADS = 8
 SEGMENTS = 3600
@@ -108,20 +107,7 @@ class TestPredictionStorm(unittest.TestCase):
         return json.loads(out.strip().splitlines()[-1])
 
     def contact_delays(self):
-        """robot1's charger_contact -> the status it asks for on battery_status, wall s, TOGGLES times."""
-        delays = []
-        for index in range(TOGGLES):
-            connected = index % 2 == 0
-            wanted = (BatteryState.POWER_SUPPLY_STATUS_CHARGING if connected
-                      else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
-            start, sent = self.status.count(), time.monotonic()
-            self.contact.publish(Bool(data=connected))
-            found = self.status.wait_new(start, lambda m: m.power_supply_status == wanted, 10.0,
-                                         'robot1 status %d' % wanted)
-            index = next(k for k, m in enumerate(self.status.since(start)) if m is found)
-            delays.append(self.status.arrival(start + index) - sent)
-            time.sleep(0.1 + 0.2 * random.random())   # different points of the update and publish periods
-        return delays
+        return contact_delays(self.status, self.contact, TOGGLES, 10.0, 'robot1')
 
     def test_a_predict_storm_on_robot0_leaves_robot1_and_robot2_as_they_are(self):
         storm_process = self.start_storm()
