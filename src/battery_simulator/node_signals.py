@@ -68,3 +68,19 @@ def end_nodes_on_signals():
             sys.excepthook = _quiet_once_stopping(sys.excepthook)
             sys.excepthook.quiet_once_stopping = True
             threading.excepthook = _quiet_once_stopping(threading.excepthook)
+
+
+def _interrupted_while_starting(signum, frame):
+    os.write(2, ('%s: interrupted while starting\n' % os.path.basename(sys.argv[0])).encode())
+    os._exit(130)
+
+
+def deliver_blocked_sigint():
+    """The executables' shebang blocks SIGINT while Python starts (env --block-signal=SIGINT), so that one sent
+    then waits, pending, instead of being lost or raising KeyboardInterrupt mid-import: a handler of ours
+    (end_nodes_on_signals' for a node, else a one-line exit until a command line sets its own), then unblock."""
+    if signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, []):
+        return
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _interrupted_while_starting)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})

@@ -7,26 +7,7 @@ one arriving while Python and its site packages import waits, pending; here, onc
 place (node_signals' for a node, or a one-line exit for a command line until it sets its own), it is
 unblocked and delivered.
 """
-import os as _os
-import signal as _signal
-import sys as _sys
-
-from battery_simulator.node_signals import end_nodes_on_signals
-
-
-def _interrupted_while_starting(signum, frame):
-    _os.write(2, ('%s: interrupted while starting\n' % _os.path.basename(_sys.argv[0])).encode())
-    _os._exit(130)
-
-
-def _deliver_blocked_sigint():
-    """The executables' shebang blocks SIGINT while Python starts: a handler of ours, then unblock it."""
-    if _signal.SIGINT not in _signal.pthread_sigmask(_signal.SIG_BLOCK, []):
-        return
-    if _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler:
-        _signal.signal(_signal.SIGINT, _interrupted_while_starting)
-    _signal.pthread_sigmask(_signal.SIG_UNBLOCK, {_signal.SIGINT})
-
+from battery_simulator.node_signals import deliver_blocked_sigint, end_nodes_on_signals
 
 end_nodes_on_signals()   # while the node imports rclpy: a signal ends it at once, quietly
-_deliver_blocked_sigint()
+deliver_blocked_sigint()
