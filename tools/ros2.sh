@@ -69,7 +69,7 @@ ensure_venv() {
 }
 
 build_stamp() {
-  (cd "$root" && { cat CMakeLists.txt package.xml action/* msg/* srv/* scripts/ros2/*;
+  (cd "$root" && { echo "source view: a link per entry"; cat CMakeLists.txt package.xml action/* msg/* srv/* scripts/ros2/*;
                    find src -name '*.py' | sort; } | sha1sum | cut -c1-40)
 }
 
@@ -78,10 +78,18 @@ ensure_build() {
   wanted=$(build_stamp)
   [ -f "$ws/.built" ] && [ "$(cat "$ws/.built")" = "$wanted" ] && return
   say "colcon build of this clone (build/.ros2/ws)"
-  # The workspace sees the clone through a link (CMake refuses the venv's include directories as
-  # part of the source tree otherwise); the clone's build/ holds the ROS 1 build and this workspace.
-  mkdir -p "$ws/src"
-  ln -sfn "$root" "$ws/src/battery_simulator"
+  # The workspace sees the clone as a tree of links to its files (CMake refuses the venv's include
+  # directories as part of the source tree otherwise); the clone's build/ (the ROS 1 build and this
+  # workspace) is left out, so that no link points at a folder that holds it: rosrun's `find -L` over
+  # the package reports a link to the clone itself as a file system loop.
+  local source_view="$ws/src/battery_simulator" entry
+  # (A workspace built through the former single link to the clone is built again from scratch.)
+  [ -L "$source_view" ] && rm -rf "$ws/build" "$ws/install"
+  rm -rf "$source_view"
+  mkdir -p "$source_view"
+  for entry in "$root"/* ; do
+    [ "$entry" = "$root/build" ] || cp -rs "$entry" "$source_view/"
+  done
   touch "$root/build/COLCON_IGNORE"
   (cd "$ws" && env -i HOME="$HOME" PATH="$venv/bin:/usr/bin:/bin" ROS_VERSION=2 ROS_DISTRO=kilted \
       AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" \
