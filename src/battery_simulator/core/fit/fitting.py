@@ -129,14 +129,21 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest,
                                  electrical, known=known)
     check_capacity(logs, masks, electrical.capacity_ah)
-    if known.soc0 is not None:   # the logged percentage fixes the SOC: the preset's shape may sit on it stretched
+    if known.soc0 is not None and not steady_current(logs):   # the percentage fixes the SOC: the preset's shape
+        # may sit on it stretched
         remapped = _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted)
         if remapped is not None:
             chemistry = remapped
             electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures,
                                          has_rest, electrical, known=known)
     progress(0.75, 'OCV curve')
-    curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known)
+    curve = None
+    if steady_current(logs):
+        for name in ('r0_ohm', 'r1_ohm', 'r_fast_ohm', 'tau1_s', 'tau_fast_s'):
+            kept[name] = 'the current never steps (a constant-current test): the resistances cannot be told ' \
+                         'from the OCV\'s level'
+    else:
+        curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known)
     plain = (electrical, heat_params)
     for rounds in range(2):
         if curve is None:
@@ -277,6 +284,7 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     _cutoff_warning(logs, masks, cells_series, changes, warnings)
     changes['cells_series'] = cells_series
     changes['cells_parallel'] = cells_parallel
+    changes['profile_current_timing'] = _current_timing(logs, fitted, warnings)
     changes['name'] = 'fitted'
     changes['source'] = 'battery_fit from %d log%s over the %s preset' % (len(logs), 's' * (len(logs) > 1),
                                                                           chemistry_name)
@@ -288,6 +296,21 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     except ParameterError as error:
         raise FitError('the fitted values break the model\'s rules (%s): the log cannot be fitted with the %s '
                        'preset; try --chemistry or --cells-series' % (error, chemistry_name)) from None
+
+
+def _current_timing(logs, fitted, warnings):
+    """The logs' current timing (conventions.current_measured_at_sample), for the config: battery_replay of a
+    log's own current follows it. Logs that differ: the most's, warned."""
+    timings = [log.current_timing for log in logs]
+    timing = max(sorted(set(timings)), key=timings.count)
+    if len(set(timings)) > 1:
+        warnings.append('the logs differ in when their current was measured (%s): %s written, which battery_replay '
+                        'follows for every profile' % (', '.join(timings), timing))
+    if timing != 'until_next_row':
+        fitted['profile_current_timing'] = Fitted(timing, 'the logged voltage answers the current of its own '
+                                                  'sample (measured at the same instant): battery_replay takes '
+                                                  'each row\'s current as the one since the previous row')
+    return timing
 
 
 def replayed_fit_rmse(result):
@@ -379,8 +402,10 @@ def _cutoff_end(log, mask):
     for start, stop in _runs(mask & (i < -threshold)):
         if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
             continue
-        if v[stop - 1] <= lowest * 1.01 and np.std(i[start:stop]) < 0.1 * abs(float(np.mean(i[start:stop]))):
-            found = stop - 1
+        end = min(stop, len(v) - 1)   # the last discharging sample's current flowed until this one
+        if min(v[stop - 1], v[end]) <= lowest * 1.01 and \
+                np.std(i[start:stop]) < 0.1 * abs(float(np.mean(i[start:stop]))):
+            found = end
     return found
 
 
@@ -574,8 +599,11 @@ class Electrical:
 
 def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest, start,
                     max_evaluations=200, known=None):
+    """The capacity, starting SOCs and time constants searched, the OCV offset and resistances solved; where
+    no log's current steps (steady_current) the resistances and time constants are the preset's."""
     from scipy.optimize import least_squares
     p = chemistry.params
+    steady = steady_current(logs)
     arrays = [log_arrays(log, chemistry, cells_series, cells_parallel) for log in logs]
     scales = [chemistry.arrhenius(temperature) for temperature in temperatures]
     if start is None:
@@ -595,6 +623,9 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
         if known.soc0 is not None:
             z0[1 + k] = known.soc0[k]
             low[1 + k], high[1 + k] = max(0.0, known.soc0[k] - KNOWN_SPREAD), min(1.0, known.soc0[k] + KNOWN_SPREAD)
+    if steady:   # the time constants: the preset's
+        for j in (-2, -1):
+            low[j], high[j] = z0[j] - 1e-6, z0[j] + 1e-6
     z0 = np.clip(z0, np.asarray(low) + 1e-9, np.asarray(high) - 1e-9)
     counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
                          * a.dt) / 3600.0 * cells_parallel for a in arrays]   # pack Ah
@@ -626,6 +657,12 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
             targets.append(a.cell_voltage[m] - ocv[m])
         design, target = np.vstack(rows), np.concatenate(targets)
         names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
+        if steady:   # the preset's resistances: a steady current cannot tell them from the OCV
+            preset_r = np.array([p.r0_ohm, p.r1_ohm, p.r_fast_ohm])
+            target = target - design[:, -3:] @ preset_r
+            values, sigmas, residual = _non_negative_lstsq(design[:, :-3], target, names[:-3])
+            values.update(zip(names[-3:], preset_r.tolist()))
+            return pieces, values, sigmas, residual
         values, sigmas, residual = _non_negative_lstsq(design, target, names)
         return pieces, values, sigmas, residual
 
@@ -662,9 +699,16 @@ def _jacobian_sigmas(solution, rmse):
         return np.full(len(solution.x), np.nan)
 
 
+def steady_current(logs):
+    """Whether no log's current steps (conventions' FitLog.steady_current: a constant-current test)."""
+    return all(log.steady_current for log in logs)
+
+
 def _non_negative_lstsq(design, target, names):
     """Least squares with the resistances >= 0 (the offset free): dropping a negative one at a time.
     Returns ({name: value}, {name: sigma}, residual)."""
+    if not names:
+        return {}, {}, target
     active = list(range(len(names)))
     while True:
         values, *_ = np.linalg.lstsq(design[:, active], target, rcond=None)
@@ -908,11 +952,15 @@ def _electrical_values(electrical, curve, chemistry, cells_series, cells_paralle
         source += ', beside the learned OCV curve'
     minimum = {'r0_ohm': 1e-5}
     for name in ('r0_ohm', 'r1_ohm', 'r_fast_ohm'):
+        if name in kept:   # the preset's (kept says why)
+            continue
         value, sigma = coefficients[name]
         value = max(value, minimum.get(name, 0.0))
         changes[name] = float('%.5g' % value)
         fitted[name] = Fitted(changes[name], source + ' (per cell)', sigma)
     for name in ('tau1_s', 'tau_fast_s'):
+        if name in kept:
+            continue
         changes[name] = float('%.4g' % getattr(electrical, name))
         fitted[name] = Fitted(changes[name], 'the relaxations\' time constant', electrical.uncertainty[name])
     if not electrical.use_tables and chemistry.table_soc is not None:
