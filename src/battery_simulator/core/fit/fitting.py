@@ -262,6 +262,9 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
         changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in _increasing(volts + gap))
     changes['cell_charge_voltage_v'] = min(p.cell_charge_voltage_v, changes['ocv_voltage_v'][-1])
     changes['cell_cutoff_voltage_v'] = max(p.cell_cutoff_voltage_v, changes['ocv_voltage_v'][0])
+    lowest = min(float(np.min(piece[0].cell_voltage[mask])) for piece, mask in zip(electrical.pieces, masks))
+    if changes['cell_cutoff_voltage_v'] > lowest:   # its SOC 0 above what the log went through: the model would
+        return None                                 # disconnect where the battery did not
     fitted['ocv_soc_scale'] = Fitted('%.4f + %.4f x' % (start, slope),
                                      'the preset\'s OCV read at this SOC: the fitted part %.1f mV per cell against '
                                      '%.1f mV on the preset\'s own SOC scale' % (1000 * after, 1000 * before))
@@ -704,6 +707,15 @@ def steady_current(logs):
     return all(log.steady_current for log in logs)
 
 
+def small_lstsq(design, target):
+    """Least squares of a few columns against many rows: the normal equations of the columns scaled to unit
+    norm (a tall matrix's SVD costs the search most of its time)."""
+    norms = np.sqrt(np.einsum('ij,ij->j', design, design))
+    norms = np.where(norms > 0, norms, 1.0)
+    gram = (design.T @ design) / np.outer(norms, norms)
+    return np.linalg.lstsq(gram, (design.T @ target) / norms, rcond=1e-12)[0] / norms
+
+
 def _non_negative_lstsq(design, target, names):
     """Least squares with the resistances >= 0 (the offset free): dropping a negative one at a time.
     Returns ({name: value}, {name: sigma}, residual)."""
@@ -838,8 +850,7 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, kno
 
     def residuals(z):
         _, matrix, target, n = solve(z)
-        values = np.linalg.lstsq(matrix, target, rcond=None)[0]
-        return (target - matrix @ values)[:n]
+        return (target - matrix @ small_lstsq(matrix, target))[:n]
 
     # the SOC scale stays the one the logs fix (the logged percentage, a full charge and a cut-off): a learned
     # curve must not stretch it; without them the curve's smoothness places it (checked by replay after)
@@ -860,8 +871,8 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, kno
         solved = np.linalg.lstsq(matrix, target, rcond=None)[0]
         if np.all(np.diff(solved[:count]) > 0):
             break
-    else:
-        return None
+    # else the smoothest, made increasing below (_increasing): over a short span of a flat curve the noise can
+    # bend it; the replay of the fitted part checks it against the preset's shape
     names = ['knot%d' % j for j in range(count)] + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
     values, sigmas, residual = _non_negative_lstsq(matrix, target, ['offset'] * count + names[count:])
     resistances = [max(values[name], 0.0) for name in names[count:]]
@@ -978,7 +989,7 @@ def _electrical_values(electrical, curve, chemistry, cells_series, cells_paralle
             fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, 'the rests\' voltages', sigma)
     else:
         knots, values = curve['knots'], curve['values']
-        below, above = soc < knots[0], soc > knots[-1]
+        below, above = soc < knots[0] - 1e-4, soc > knots[-1] + 1e-4   # no point twice where they meet
         # outside the covered range the preset's shape, its departure at the ends fading to none at 0 and 1
         start = values[0] - np.interp(knots[0], soc, chemistry.ocv)
         end = values[-1] - np.interp(knots[-1], soc, chemistry.ocv)
