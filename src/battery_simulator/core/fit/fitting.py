@@ -988,7 +988,9 @@ def _electrical_values(electrical, curve, chemistry, cells_series, cells_paralle
             volts = chemistry.ocv + offset
             fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, 'the rests\' voltages', sigma)
     else:
-        knots, values = curve['knots'], curve['values']
+        knots, values = np.array(curve['knots'], dtype=float), curve['values']
+        knots[0] = 0.0 if knots[0] < 1e-4 else knots[0]          # a knot at the table's own end is that end
+        knots[-1] = 1.0 if knots[-1] > 1.0 - 1e-4 else knots[-1]
         below, above = soc < knots[0] - 1e-4, soc > knots[-1] + 1e-4   # no point twice where they meet
         # outside the covered range the preset's shape, its departure at the ends fading to none at 0 and 1
         start = values[0] - np.interp(knots[0], soc, chemistry.ocv)
