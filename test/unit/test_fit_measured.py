@@ -16,6 +16,7 @@ from battery_simulator.core.fit.circuit import counted_charge_ah
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'data', 'measured')
 I3 = os.path.join(DATA, 'bmw_i3_TripA01.csv.gz')
+I3_WINTER = os.path.join(DATA, 'bmw_i3_TripB06.csv.gz')
 A123 = os.path.join(DATA, 'calce_a123_dst_20C.csv.gz')
 
 
@@ -34,6 +35,15 @@ def test_bmw_i3_drive_96_cells_bms_capacity_and_temperature(tmp_path):
         figures['capacity_ah'], bms_capacity)
     assert figures['temperature_k'] <= 5.0, 'the model\'s temperature %.1f K from the logged' % figures['temperature_k']
     assert figures['held_mv'] <= 15.0, 'held out %.1f mV per cell (at most 15)' % figures['held_mv']
+
+
+def test_a_stretched_ocv_scale_never_cuts_off_what_the_log_went_through(tmp_path):
+    """The winter drive B06: the preset's OCV on a stretched SOC scale (0.497 + 0.375 x) put SOC 0 at 3.738 V
+    per cell while the fitted part went down to 3.528 V: the replay's model disconnected (fitted part 56.5 mV
+    per cell, held out 17.4). That scale is not taken: 4.0 and 4.2 mV."""
+    figures = fit_logs.fit_and_score(I3_WINTER, str(tmp_path), cells=96)
+    assert 'go below the cut-off' not in figures['report'], figures['report']
+    assert figures['fitted_mv'] <= 10.0 and figures['held_mv'] <= 15.0, (figures['fitted_mv'], figures['held_mv'])
 
 
 def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
