@@ -69,7 +69,7 @@ def _step_log(path, measured_at_sample, period_s=1.0, r0=0.17):
     """A resistor-and-RC cell under current steps every 1-7 samples, its voltage sampled either at the same
     instant as its current (a cycler) or answering the previous row's current (the replay's convention)."""
     rng = np.random.default_rng(4)
-    n = 3000
+    n = 1500
     current = np.repeat(rng.choice([-3.0, -2.0, -0.4, 0.0, 0.8], n), rng.integers(1, 8, n))[:n]
     t = np.arange(n) * period_s
     rc, volts = 0.0, []
