@@ -250,13 +250,13 @@ def drive_power_w(rng, duration_s, rate_hz=VEHICLE_RATE_HZ):
     return power
 
 
-def simulate_vehicle(params, soc_from, soc_to, seed):
-    """A drive at 10 Hz from SOC ``soc_from`` until ``soc_to``: samples (with the BMS's noise) and the true
-    SOC at each."""
+def simulate_vehicle(params, soc_from, soc_to, seed, rate_hz=VEHICLE_RATE_HZ):
+    """A drive at ``rate_hz`` from SOC ``soc_from`` until ``soc_to``: samples (with the BMS's noise) and the
+    true SOC at each."""
     rng = random.Random(seed)
     model = BatteryModel(params, state_of_charge=soc_from, mode=Mode.DISCHARGE)
-    power = drive_power_w(rng, 4.0 * 3600.0)
-    dt = 1.0 / VEHICLE_RATE_HZ
+    power = drive_power_w(rng, 4.0 * 3600.0, rate_hz)
+    dt = 1.0 / rate_hz
     samples, socs = [], []
     for k, p in enumerate(power):
         snapshot = model.snapshot()
@@ -270,13 +270,13 @@ def simulate_vehicle(params, soc_from, soc_to, seed):
     return samples, socs
 
 
-def vehicle_logs(directory, params=None, spans=((0.9, 0.5, 21), (0.7, 0.3, 22))):
+def vehicle_logs(directory, params=None, spans=((0.9, 0.5, 21), (0.7, 0.3, 22)), rate_hz=VEHICLE_RATE_HZ):
     """Two drives of the vehicle as CSVs (overlapping SOC ranges: the default hold-out of the first lies within
     the range the second's fitted part covers): [(path, true SOC per sample)]."""
     params = params or vehicle_params()
     out = []
     for index, (soc_from, soc_to, seed) in enumerate(spans):
-        samples, socs = simulate_vehicle(params, soc_from, soc_to, seed)
+        samples, socs = simulate_vehicle(params, soc_from, soc_to, seed, rate_hz)
         path = os.path.join(str(directory), 'drive%d.csv' % (index + 1))
         write_csv(path, samples)
         out.append((path, numpy.asarray(socs)))

@@ -192,7 +192,8 @@ def test_from_mapping_messages_name_the_origin():
                                      'cell_max_charge_current_a, protection_temperature_c, overheat_temperature_c, '
                                      'cold_temperature_c, capacity_fade_per_cycle, initial_cycle_count, '
                                      'drive_power_w_per_mps, turn_power_w_per_radps, cmd_vel_timeout_s, '
-                                     'voltage_noise_v, current_noise_a, location, serial_number, source, chemistry, capacity_spread, '
+                                     'voltage_noise_v, current_noise_a, location, serial_number, source, chemistry, '
+                                     'profile_current_timing, capacity_spread, '
                                      'resistance_spread, spread_seed, groups, balancing, imbalance_warn_v, gauge, charger_holds_full, conventions)')
     with pytest.raises(ParameterError) as error:
         from_mapping({'preset': 'turbo'})

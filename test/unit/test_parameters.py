@@ -40,7 +40,9 @@ def test_every_parameter_has_a_unit_or_is_a_count_or_text():
                 # Part 7: a switch, and a mapping of a sign and a scale
                 'charger_holds_full', 'conventions',
                 # Part 8: a name (li-ion or lfp)
-                'chemistry'}
+                'chemistry',
+                # Part 8: when a replayed profile's current flowed (a name)
+                'profile_current_timing'}
     for name in PARAMETER_NAMES:
         assert name in unitless or name.endswith(units), name
 

@@ -113,6 +113,11 @@ class BatteryParameters:
     #: the cells' chemistry: 'li-ion' (NMC / NCA) or 'lfp'; a config naming 'lfp' without an OCV table of
     #: its own gets LFP's (core/lfp_tables.py)
     chemistry: str = 'li-ion'
+    #: when a profile row's current flowed, for battery_replay (core/replay.py, PROFILE_TIMINGS):
+    #: 'until_next_row' (from the row's time until the next row's) or 'since_previous_row' (measured at the
+    #: row's instant, as a cycler or BatteryState logs it: it flowed since the previous row). battery_fit
+    #: writes the one its log shows, so that the log's own current replays it
+    profile_current_timing: str = 'until_next_row'
     #: a pack of differing cells (Part 5): relative standard deviation of the series groups' capacity and
     #: resistance, drawn with ``spread_seed`` (0: identical groups, the lumped model); below MAX_SPREAD
     capacity_spread: float = 0.0

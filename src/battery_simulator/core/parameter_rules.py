@@ -4,6 +4,8 @@ import math
 
 from battery_simulator.core.lfp_tables import CHEMISTRIES
 
+#: battery_replay's profile timings (BatteryParameters.profile_current_timing)
+PROFILE_TIMINGS = ('until_next_row', 'since_previous_row')
 
 
 class ParameterError(ValueError):
@@ -102,6 +104,7 @@ _RULES = (
     ('serial_number', lambda v: isinstance(v, str), 'a string'),
     ('source', lambda v: isinstance(v, str), 'a string'),
     ('chemistry', lambda v: v in CHEMISTRIES, 'one of %s' % ', '.join(CHEMISTRIES)),
+    ('profile_current_timing', lambda v: v in PROFILE_TIMINGS, 'one of %s' % ', '.join(PROFILE_TIMINGS)),
 )
 
 

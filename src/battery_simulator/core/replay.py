@@ -7,7 +7,10 @@
 The profile has a header with ``time`` (s, never decreasing: equal times, as
 cycler logs have, are a zero-length segment) and ``current`` (A, negative =
 discharge, as in sensor_msgs/BatteryState) or ``power`` (W, same sign). Each
-row's value is held until the next row's time. The output has one
+row's value is held until the next row's time (a config's
+``profile_current_timing: since_previous_row``, which battery_fit writes for a
+log that measured voltage and current at the same instant: since the previous
+row's time). The output has one
 row per profile row: the state at that time (time, voltage, current, soc 0..1,
 temperature, status).
 
@@ -97,11 +100,19 @@ def _read_rows(path, reader):
     return rows
 
 
-def replay(params, profile, state_of_charge=1.0, max_step_s=1.0):
-    """Yield an output row (see OUTPUT_COLUMNS) at each profile time."""
+def replay(params, profile, state_of_charge=1.0, max_step_s=1.0, timing=None):
+    """Yield an output row (see OUTPUT_COLUMNS) at each profile time.
+
+    ``timing`` (default the config's ``profile_current_timing``): 'until_next_row' holds each row's value
+    from its time until the next row's; 'since_previous_row' takes a row's value as the one that flowed since
+    the previous row (a log that measured the voltage and the current at the same instant: a cycler's,
+    BatteryState's), so each row's voltage answers its own current."""
     model = make_model(params, state_of_charge=state_of_charge, mode=Mode.IDLE)
     yield _row(profile[0][0], model)
-    for (start_s, kind, value), (end_s, _, _) in zip(profile, profile[1:]):
+    since_previous = (timing or params.profile_current_timing) == 'since_previous_row'
+    for (start_s, kind, value), (end_s, next_kind, next_value) in zip(profile, profile[1:]):
+        if since_previous:
+            kind, value = next_kind, next_value
         if value == 0.0:
             steps = 1   # a rest is exact in one step
         else:

@@ -15,7 +15,8 @@ ORDER = ('name', 'source', 'cells_series', 'cells_parallel', 'cell_capacity_ah',
          'r0_soc_factor', 'r1_soc_factor', 'r_fast_soc_factor', 'cell_charge_voltage_v', 'cell_cutoff_voltage_v',
          'charge_current_a', 'termination_current_a', 'load_current_a', 'load_power_w', 'drive_power_w_per_mps',
          'turn_power_w_per_radps', 'ambient_temperature_c', 'initial_temperature_c', 'cell_heat_capacity_j_per_k',
-         'cell_heat_transfer_w_per_k', 'cell_max_discharge_current_a', 'cell_max_charge_current_a')
+         'cell_heat_transfer_w_per_k', 'cell_max_discharge_current_a', 'cell_max_charge_current_a',
+         'profile_current_timing')
 
 
 #: the first line of every config battery_fit writes (only such a file may be written over)

@@ -19,6 +19,8 @@ GAP_S, GAP_FACTOR = 600.0, 20.0
 MAX_SAMPLES = 150000
 #: a current whose standard deviation is below this (after the sensor's noise) has no steps, A
 MIN_CURRENT_SPREAD_A = 0.02
+#: a constant-current log is fitted (capacity, OCV) where its voltage moves by at least this much, V
+MIN_STEADY_VOLTAGE_SPAN_V = 0.05
 
 
 @dataclass
@@ -41,6 +43,12 @@ class FitLog:
     current_inverted: bool = False
     #: the series count BatteryState.cell_voltage shows (0: none)
     cell_count: int = 0
+    #: when the logged current flowed (BatteryParameters.profile_current_timing): 'since_previous_row' where
+    #: the voltage answers the current of its own row (measured at the same instant); ``current_a`` holds
+    #: the replay's convention either way (the current that flowed after each sample, until the next)
+    current_timing: str = 'until_next_row'
+    #: the current never steps (a constant-current test): the resistances are the preset's
+    steady_current: bool = False
     notes: list = field(default_factory=list)
 
 
@@ -83,11 +91,17 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
                      if period / factor <= GAP_S), 'nanoseconds')
         raise FitError('%s: the samples are %.3g s apart (median): the time looks like %s; the time column must be '
                        'in seconds' % (name, period, unit))
-    if np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A:
-        raise FitError('%s: the current is constant (%.3f A, spread %.3f A): nothing to identify the resistance '
-                       'from; record a log with current steps (drive, stop, charge)' % (name, np.mean(i), np.std(i)))
+    steady = bool(np.std(i) < MIN_CURRENT_SPREAD_A or np.ptp(i) < 4 * MIN_CURRENT_SPREAD_A)
+    if steady and (abs(float(np.mean(i))) < 4 * MIN_CURRENT_SPREAD_A or np.ptp(v) < MIN_STEADY_VOLTAGE_SPAN_V):
+        raise FitError('%s: the current is constant (%.3f A, spread %.3f A) and the voltage moves %.3f V: nothing to '
+                       'identify; record a log with current steps (drive, stop, charge)'
+                       % (name, np.mean(i), np.std(i), np.ptp(v)))
     log = FitLog(name=name, time_s=t - t[0], voltage_v=v, current_a=i, source=raw.source, notes=notes,
-                 cell_count=_cell_count(raw, v, notes))
+                 cell_count=_cell_count(raw, v, notes), steady_current=steady)
+    if steady:
+        notes.append('constant current (%.3f A): the capacity and the OCV from how the voltage moves; the '
+                     'resistances and time constants the preset\'s (a current that never steps cannot tell them '
+                     'from the OCV\'s level)' % np.mean(i))
     log.current_inverted = current_is_inverted(t, v, i)
     if log.current_inverted:
         log.current_a = -i
@@ -95,6 +109,15 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
                      'voltage moves with the current: turned to ROS\'s (positive = charging)')
     else:
         notes.append('current sign: ROS\'s (positive = charging), found from how the voltage moves with the current')
+    if current_measured_at_sample(log.voltage_v, log.current_a):
+        log.current_timing = 'since_previous_row'
+        log.current_a = flowing_after(log.current_a)
+        notes.append('current timing: the voltage answers the current of its own sample (measured at the same '
+                     'instant): each sample\'s current flowed since the previous sample (the config says so: '
+                     'profile_current_timing, which battery_replay follows)')
+    else:
+        notes.append('current timing: the voltage answers the previous sample\'s current: each sample\'s current '
+                     'flowed until the next sample (battery_replay\'s default)')
     if np.isfinite(temp).sum() >= MIN_SAMPLES:
         log.temperature_c = _filled(temp)
     else:
@@ -106,6 +129,52 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     if raw.motion_time_s is not None and len(raw.motion_time_s) > 0:
         _motion_at_samples(log, raw, t, cmd_vel_timeout_s)
     return log
+
+
+#: the voltage answers its own sample's current where the least-squares step response at the same sample is
+#: this many times the one at the next sample
+AT_SAMPLE_RATIO = 2.0
+
+
+def current_measured_at_sample(v, i):
+    """Whether the voltage jumps at the sample where the current steps (both measured at the same instant:
+    a cycler, BatteryState) rather than one sample later (a row's current held until the next row): the
+    voltage's change regressed on the current's change at its own sample and at the one before, over the
+    samples next to a step (current in ROS's sign)."""
+    response = step_response(v, i)
+    if response is None:
+        return False
+    same, following = response
+    return abs(same) > AT_SAMPLE_RATIO * abs(following)
+
+
+def step_response(v, i):
+    """(same, following): the voltage's change per ampere of a current step at the step's own sample and at
+    the next sample (least squares over the samples next to a step); None without 3 steps."""
+    dv, di = np.diff(v), np.diff(i)
+    if len(di) < 3:
+        return None
+    big = np.abs(di) > max(4.0 * float(np.median(np.abs(di))), 0.05 * float(np.ptp(i)), 2 * MIN_CURRENT_SPREAD_A)
+    rows = np.flatnonzero(big[1:] | big[:-1]) + 1   # dv[j] against di[j] and di[j - 1]
+    if big.sum() < 3 or len(rows) < 4:
+        return None
+    design = np.column_stack([di[rows], di[rows - 1]])
+    (same, following), *_ = np.linalg.lstsq(design, dv[rows], rcond=None)
+    return float(same), float(following)
+
+
+def flowing_after(current_a):
+    """A current measured at each sample's instant (it flowed since the previous sample) in the replay's
+    convention: the current that flowed after each sample, until the next (the last sample's kept)."""
+    current_a = np.asarray(current_a, dtype=float)
+    return np.concatenate([current_a[1:], current_a[-1:]])
+
+
+def as_logged(log):
+    """``log``'s current as its log gave it (the inverse of flowing_after where the timing says so)."""
+    if log.current_timing == 'since_previous_row':
+        return np.concatenate([log.current_a[:1], log.current_a[:-1]])
+    return log.current_a
 
 
 def _cell_count(raw, voltage, notes):
@@ -173,10 +242,10 @@ def current_is_inverted(t, v, i):
     """Whether the current is positive while discharging: at a current step the voltage moves with the
     current in ROS's convention (V = E + R I); with no steps, a voltage falling while the current is
     positive says the same."""
-    dv, di = np.diff(v), np.diff(i)
-    big = np.abs(di) > max(4.0 * np.median(np.abs(di)), 0.05 * np.ptp(i))
-    if big.sum() >= 3:
-        return float(np.sum(dv[big] * di[big])) < 0.0
+    response = step_response(v, i)
+    if response is not None:   # the voltage's jump at the step (at its sample or the next, whichever is larger)
+        same, following = response
+        return (same if abs(same) >= abs(following) else following) < 0.0
     # no steps: the trend of the voltage against the charge counted with this sign
     charge = np.concatenate([[0.0], np.cumsum(0.5 * (i[1:] + i[:-1]) * np.diff(t))])
     if np.ptp(charge) == 0:

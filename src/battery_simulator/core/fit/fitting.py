@@ -129,14 +129,21 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest,
                                  electrical, known=known)
     check_capacity(logs, masks, electrical.capacity_ah)
-    if known.soc0 is not None:   # the logged percentage fixes the SOC: the preset's shape may sit on it stretched
+    if known.soc0 is not None and not steady_current(logs):   # the percentage fixes the SOC: the preset's shape
+        # may sit on it stretched
         remapped = _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted)
         if remapped is not None:
             chemistry = remapped
             electrical = _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures,
                                          has_rest, electrical, known=known)
     progress(0.75, 'OCV curve')
-    curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known)
+    curve = None
+    if steady_current(logs):
+        for name in ('r0_ohm', 'r1_ohm', 'r_fast_ohm', 'tau1_s', 'tau_fast_s'):
+            kept[name] = 'the current never steps (a constant-current test): the resistances cannot be told ' \
+                         'from the OCV\'s level'
+    else:
+        curve = _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known)
     plain = (electrical, heat_params)
     for rounds in range(2):
         if curve is None:
@@ -255,6 +262,9 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
         changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in _increasing(volts + gap))
     changes['cell_charge_voltage_v'] = min(p.cell_charge_voltage_v, changes['ocv_voltage_v'][-1])
     changes['cell_cutoff_voltage_v'] = max(p.cell_cutoff_voltage_v, changes['ocv_voltage_v'][0])
+    lowest = min(float(np.min(piece[0].cell_voltage[mask])) for piece, mask in zip(electrical.pieces, masks))
+    if changes['cell_cutoff_voltage_v'] > lowest:   # its SOC 0 above what the log went through: the model would
+        return None                                 # disconnect where the battery did not
     fitted['ocv_soc_scale'] = Fitted('%.4f + %.4f x' % (start, slope),
                                      'the preset\'s OCV read at this SOC: the fitted part %.1f mV per cell against '
                                      '%.1f mV on the preset\'s own SOC scale' % (1000 * after, 1000 * before))
@@ -277,6 +287,7 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     _cutoff_warning(logs, masks, cells_series, changes, warnings)
     changes['cells_series'] = cells_series
     changes['cells_parallel'] = cells_parallel
+    changes['profile_current_timing'] = _current_timing(logs, fitted, warnings)
     changes['name'] = 'fitted'
     changes['source'] = 'battery_fit from %d log%s over the %s preset' % (len(logs), 's' * (len(logs) > 1),
                                                                           chemistry_name)
@@ -288,6 +299,21 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     except ParameterError as error:
         raise FitError('the fitted values break the model\'s rules (%s): the log cannot be fitted with the %s '
                        'preset; try --chemistry or --cells-series' % (error, chemistry_name)) from None
+
+
+def _current_timing(logs, fitted, warnings):
+    """The logs' current timing (conventions.current_measured_at_sample), for the config: battery_replay of a
+    log's own current follows it. Logs that differ: the most's, warned."""
+    timings = [log.current_timing for log in logs]
+    timing = max(sorted(set(timings)), key=timings.count)
+    if len(set(timings)) > 1:
+        warnings.append('the logs differ in when their current was measured (%s): %s written, which battery_replay '
+                        'follows for every profile' % (', '.join(timings), timing))
+    if timing != 'until_next_row':
+        fitted['profile_current_timing'] = Fitted(timing, 'the logged voltage answers the current of its own '
+                                                  'sample (measured at the same instant): battery_replay takes '
+                                                  'each row\'s current as the one since the previous row')
+    return timing
 
 
 def replayed_fit_rmse(result):
@@ -379,8 +405,10 @@ def _cutoff_end(log, mask):
     for start, stop in _runs(mask & (i < -threshold)):
         if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
             continue
-        if v[stop - 1] <= lowest * 1.01 and np.std(i[start:stop]) < 0.1 * abs(float(np.mean(i[start:stop]))):
-            found = stop - 1
+        end = min(stop, len(v) - 1)   # the last discharging sample's current flowed until this one
+        if min(v[stop - 1], v[end]) <= lowest * 1.01 and \
+                np.std(i[start:stop]) < 0.1 * abs(float(np.mean(i[start:stop]))):
+            found = end
     return found
 
 
@@ -574,8 +602,11 @@ class Electrical:
 
 def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest, start,
                     max_evaluations=200, known=None):
+    """The capacity, starting SOCs and time constants searched, the OCV offset and resistances solved; where
+    no log's current steps (steady_current) the resistances and time constants are the preset's."""
     from scipy.optimize import least_squares
     p = chemistry.params
+    steady = steady_current(logs)
     arrays = [log_arrays(log, chemistry, cells_series, cells_parallel) for log in logs]
     scales = [chemistry.arrhenius(temperature) for temperature in temperatures]
     if start is None:
@@ -595,6 +626,9 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
         if known.soc0 is not None:
             z0[1 + k] = known.soc0[k]
             low[1 + k], high[1 + k] = max(0.0, known.soc0[k] - KNOWN_SPREAD), min(1.0, known.soc0[k] + KNOWN_SPREAD)
+    if steady:   # the time constants: the preset's
+        for j in (-2, -1):
+            low[j], high[j] = z0[j] - 1e-6, z0[j] + 1e-6
     z0 = np.clip(z0, np.asarray(low) + 1e-9, np.asarray(high) - 1e-9)
     counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
                          * a.dt) / 3600.0 * cells_parallel for a in arrays]   # pack Ah
@@ -626,6 +660,12 @@ def _fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temper
             targets.append(a.cell_voltage[m] - ocv[m])
         design, target = np.vstack(rows), np.concatenate(targets)
         names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
+        if steady:   # the preset's resistances: a steady current cannot tell them from the OCV
+            preset_r = np.array([p.r0_ohm, p.r1_ohm, p.r_fast_ohm])
+            target = target - design[:, -3:] @ preset_r
+            values, sigmas, residual = _non_negative_lstsq(design[:, :-3], target, names[:-3])
+            values.update(zip(names[-3:], preset_r.tolist()))
+            return pieces, values, sigmas, residual
         values, sigmas, residual = _non_negative_lstsq(design, target, names)
         return pieces, values, sigmas, residual
 
@@ -662,9 +702,25 @@ def _jacobian_sigmas(solution, rmse):
         return np.full(len(solution.x), np.nan)
 
 
+def steady_current(logs):
+    """Whether no log's current steps (conventions' FitLog.steady_current: a constant-current test)."""
+    return all(log.steady_current for log in logs)
+
+
+def small_lstsq(design, target):
+    """Least squares of a few columns against many rows: the normal equations of the columns scaled to unit
+    norm (a tall matrix's SVD costs the search most of its time)."""
+    norms = np.sqrt(np.einsum('ij,ij->j', design, design))
+    norms = np.where(norms > 0, norms, 1.0)
+    gram = (design.T @ design) / np.outer(norms, norms)
+    return np.linalg.lstsq(gram, (design.T @ target) / norms, rcond=1e-12)[0] / norms
+
+
 def _non_negative_lstsq(design, target, names):
     """Least squares with the resistances >= 0 (the offset free): dropping a negative one at a time.
     Returns ({name: value}, {name: sigma}, residual)."""
+    if not names:
+        return {}, {}, target
     active = list(range(len(names)))
     while True:
         values, *_ = np.linalg.lstsq(design[:, active], target, rcond=None)
@@ -794,8 +850,7 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, kno
 
     def residuals(z):
         _, matrix, target, n = solve(z)
-        values = np.linalg.lstsq(matrix, target, rcond=None)[0]
-        return (target - matrix @ values)[:n]
+        return (target - matrix @ small_lstsq(matrix, target))[:n]
 
     # the SOC scale stays the one the logs fix (the logged percentage, a full charge and a cut-off): a learned
     # curve must not stretch it; without them the curve's smoothness places it (checked by replay after)
@@ -816,8 +871,8 @@ def _learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, kno
         solved = np.linalg.lstsq(matrix, target, rcond=None)[0]
         if np.all(np.diff(solved[:count]) > 0):
             break
-    else:
-        return None
+    # else the smoothest, made increasing below (_increasing): over a short span of a flat curve the noise can
+    # bend it; the replay of the fitted part checks it against the preset's shape
     names = ['knot%d' % j for j in range(count)] + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
     values, sigmas, residual = _non_negative_lstsq(matrix, target, ['offset'] * count + names[count:])
     resistances = [max(values[name], 0.0) for name in names[count:]]
@@ -908,11 +963,15 @@ def _electrical_values(electrical, curve, chemistry, cells_series, cells_paralle
         source += ', beside the learned OCV curve'
     minimum = {'r0_ohm': 1e-5}
     for name in ('r0_ohm', 'r1_ohm', 'r_fast_ohm'):
+        if name in kept:   # the preset's (kept says why)
+            continue
         value, sigma = coefficients[name]
         value = max(value, minimum.get(name, 0.0))
         changes[name] = float('%.5g' % value)
         fitted[name] = Fitted(changes[name], source + ' (per cell)', sigma)
     for name in ('tau1_s', 'tau_fast_s'):
+        if name in kept:
+            continue
         changes[name] = float('%.4g' % getattr(electrical, name))
         fitted[name] = Fitted(changes[name], 'the relaxations\' time constant', electrical.uncertainty[name])
     if not electrical.use_tables and chemistry.table_soc is not None:
@@ -929,8 +988,10 @@ def _electrical_values(electrical, curve, chemistry, cells_series, cells_paralle
             volts = chemistry.ocv + offset
             fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, 'the rests\' voltages', sigma)
     else:
-        knots, values = curve['knots'], curve['values']
-        below, above = soc < knots[0], soc > knots[-1]
+        knots, values = np.array(curve['knots'], dtype=float), curve['values']
+        knots[0] = 0.0 if knots[0] < 1e-4 else knots[0]          # a knot at the table's own end is that end
+        knots[-1] = 1.0 if knots[-1] > 1.0 - 1e-4 else knots[-1]
+        below, above = soc < knots[0] - 1e-4, soc > knots[-1] + 1e-4   # no point twice where they meet
         # outside the covered range the preset's shape, its departure at the ends fading to none at 0 and 1
         start = values[0] - np.interp(knots[0], soc, chemistry.ocv)
         end = values[-1] - np.interp(knots[-1], soc, chemistry.ocv)

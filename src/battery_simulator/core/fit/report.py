@@ -5,6 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from battery_simulator.core.fit.conventions import as_logged
 from battery_simulator.core.replay import replay
 
 PROFILE_COLUMNS = ('time', 'current', 'voltage')
@@ -29,7 +30,10 @@ def replay_profile(log):
 def figures(result):
     voltages, fit_errors, held_errors, per_log = [], [], [], []
     for log, soc, mask in zip(result.logs, result.initial_soc, result.fit_masks):
-        rows = replay(result.params, replay_profile(log), state_of_charge=min(max(soc, 0.0), 1.0))
+        # the log's current in the replay's own convention (FitLog.current_a): the same as its logged current
+        # replayed with the config's profile_current_timing
+        rows = replay(result.params, replay_profile(log), state_of_charge=min(max(soc, 0.0), 1.0),
+                      timing='until_next_row')
         model = np.array([float(row[1]) for row in rows])
         error = model - log.voltage_v
         voltages.append(model)
@@ -52,7 +56,7 @@ def replayed_rmse(result, most_samples):
         span = np.diff(times)
         current = np.concatenate([np.diff(charge) / np.where(span > 0, span, 1.0), [log.current_a[end - 1]]])
         profile = [(float(a), 'current', float(b)) for a, b in zip(times, current)]
-        rows = replay(result.params, profile, state_of_charge=min(max(soc, 0.0), 1.0))
+        rows = replay(result.params, profile, state_of_charge=min(max(soc, 0.0), 1.0), timing='until_next_row')
         model = np.array([float(row[1]) for row in rows])
         errors.append(model - log.voltage_v[:end:step])
     return _rmse(np.concatenate(errors))
@@ -111,5 +115,5 @@ def write_profile(path, log):
     """A log's current and voltage as battery_replay's profile CSV (the current in ROS's sign)."""
     with open(path, 'w', encoding='utf-8') as stream:
         stream.write(','.join(PROFILE_COLUMNS) + '\n')
-        for t, i, v in zip(log.time_s, log.current_a, log.voltage_v):
+        for t, i, v in zip(log.time_s, as_logged(log), log.voltage_v):
             stream.write('%.6g,%.6g,%.6g\n' % (t, i, v))
