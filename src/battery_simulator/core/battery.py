@@ -28,11 +28,11 @@ from dataclasses import replace
 
 from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.gauge import CAPACITY_LEARNED, LOGGED_CORRECTION
-from battery_simulator.core.node_settings import MAX_TIME_SCALE
+from battery_simulator.core.node_settings import MODE_ALLOWED, SettingError, check_setting, refusal, setting
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameter_rules import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, is_number,
                                                     load_power_error)
-from battery_simulator.core.status_codes import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
+from battery_simulator.core.status_codes import (CHARGING_STATE, EMPTY, FULL, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
                                                  SupplyStatus)
 from battery_simulator.core.time_base import TimeBase
 
@@ -75,7 +75,7 @@ class Goal:
     def __init__(self, charge):
         self.mode = Mode.CHARGE if charge else Mode.DISCHARGE
         self.target = Status.FULL if charge else Status.EMPTY
-        self.done_text = 'Full' if charge else 'Empty'
+        self.done_text = FULL if charge else EMPTY
 
 
 class GoalEnd:
@@ -376,8 +376,8 @@ class Battery:
         if logged_value == repr(value) and now - logged_at < INVALID_LOG_PERIOD_S:
             return
         self._invalid_logged = (repr(value), now)
-        self._log.error('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
-                        '(hold); keeping %s', self.mode_name, value, self.model.mode.value)
+        self._log.error('%s', refusal(self.mode_name, value, 'must be %s, or unset (hold); keeping %s' % (
+            MODE_ALLOWED, self.model.mode.value)))
 
     # -- goals -----------------------------------------------------------------------
 
@@ -525,9 +525,10 @@ class Battery:
     def set_live(self, name, value):
         """Change one live setting, validated like its start-up value; BatteryError (the old value kept)."""
         if name == 'time_scale':
-            if not (is_number(value) and 0 < value <= MAX_TIME_SCALE):
-                raise BatteryError('time_scale = %r is invalid: must be a number in (0, %g]; keeping %g'
-                                   % (value, MAX_TIME_SCALE, self.time_scale))
+            try:
+                check_setting(setting('time_scale'), value)
+            except SettingError as error:
+                raise BatteryError('%s; keeping %g' % (error, self.time_scale)) from None
             with self.lock:
                 self._step_to(self._clock())   # the time so far at the old setting
                 self.time_scale = float(value)
@@ -537,8 +538,7 @@ class Battery:
         if name not in LIVE_PARAMETERS:
             raise BatteryError('%s is not a live setting; live: time_scale, %s' % (name, ', '.join(LIVE_PARAMETERS)))
         if not is_number(value):
-            raise BatteryError('%s = %r is invalid: must be a number; keeping %g' % (
-                name, value, getattr(self.params, name)))
+            raise BatteryError(refusal(name, value, 'must be a number; keeping %g' % getattr(self.params, name)))
         with self.lock:
             try:
                 params = replace(self.params, **{name: float(value)})
@@ -546,6 +546,18 @@ class Battery:
                 raise BatteryError('%s; keeping %g' % (error, getattr(self.params, name))) from None
             self._step_to(self._clock())   # the time so far at the old setting
             self.model.params = params
+
+
+def new_battery(params, settings, charging, mode_name, log, ros_clock=None):
+    """The one way every front end builds a battery (a single node's, a fleet robot's): ``params`` (the
+    config), ``settings`` (core/node_settings.py BATTERY_SETTINGS' initial_percentage, time_scale and
+    max_time_jump; the last two may be missing), ``charging`` (the start-up mode), ``mode_name`` (what the
+    front end calls the mode), ``log`` (a BatteryLog); ``ros_clock()``: the front end's ROS time under
+    use_sim_time, None on wall time (monotonic, scaled by time_scale)."""
+    sim_time = ros_clock is not None
+    return Battery(params, settings['initial_percentage'], charging, clock=ros_clock if sim_time else time.monotonic,
+                   sim_time=sim_time, time_scale=settings.get('time_scale', setting('time_scale').default),
+                   mode_name=mode_name, log=log, max_time_jump=settings.get('max_time_jump', DEFAULT_MAX_TIME_JUMP_S))
 
 
 def fill_fields(msg, fields):

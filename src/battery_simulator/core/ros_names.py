@@ -2,6 +2,11 @@
 
 #: the mode parameter: 1/true charges, 0/false discharges, unset holds
 MODE_PARAM = 'MyRobot/BatteryStatus'
+#: ROS 2's mode parameter of the battery_simulator node (the same values: true / false, 1 / 0)
+CHARGING_PARAM = 'charging'
+#: the node names of sim.launch's two roles (ROS 1 names the server BatterySimServer in the launch file)
+BATTERY_NODE = 'battery_simulator'
+STATUS_NODE = 'battery_state_pub'
 #: the action (battery_simulator/battery_simAction)
 ACTION = 'battery_simulator'
 #: the server's state after every update (battery_simulator/BatterySimState)

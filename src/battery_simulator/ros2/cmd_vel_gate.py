@@ -10,7 +10,7 @@ from battery_simulator.core import ros_names
 from battery_simulator.msg import BatterySimState
 from battery_simulator.robot import cmd_vel_gate as rule
 from battery_simulator.ros2.qos import LATCHED_QOS
-from battery_simulator.ros2.robot_node import run_node
+from battery_simulator.ros2.startup import run_node
 from battery_simulator.ros2.twist import TwistPublisher, TwistSubscriber
 
 

@@ -31,15 +31,14 @@ from battery_simulator.core.node_settings import Setting
 from battery_simulator.core.parameter_rules import is_number
 from battery_simulator.robot import base, clock as clock_rule, dock_contact, patrol
 from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s
-from battery_simulator.ros2.battery_sim import OneBattery, finish
+from battery_simulator.ros2.one_battery import OneBattery
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
 from battery_simulator.ros2.fake_base import FakeBase
 from battery_simulator.ros2.patrol_and_dock import ROS2_DEFAULTS, PatrolAndDock
-from battery_simulator.ros2.robot_node import read_settings
 from battery_simulator.ros2.sim_clock import SimClock
 from battery_simulator.ros2.battery_claims import BatteryClaim
-from battery_simulator.ros2.startup import StartupError, ending_quietly, exit_on_startup_error, init, run
+from battery_simulator.ros2.startup import StartupError, ending_quietly, exit_on_startup_error, init, read_settings, run
 
 GAUGES = GAUGE_CONFIGS
 #: a mobile robot's cruising speed at most: the patrol, the dock's approach and its contact assume it
@@ -122,7 +121,7 @@ class Demo:
         """At a stop signal: the clock stops, the battery's goal ends and its state is saved."""
         if self.clock is not None:
             self.clock.stop()
-        return finish(self.battery.front) if self.battery is not None else (lambda: True)
+        return self.battery.finish() if self.battery is not None else (lambda: True)
 
 
 def main(args=None):

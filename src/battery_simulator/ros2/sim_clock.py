@@ -19,8 +19,7 @@ from rosgraph_msgs.msg import Clock
 from rclpy.time import Time
 
 from battery_simulator.robot import clock as rule
-from battery_simulator.ros2.robot_node import run_node
-from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER
+from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER, run_node
 
 
 def clock_msg(seconds):

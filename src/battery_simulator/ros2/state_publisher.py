@@ -6,14 +6,18 @@ SimState of an in-process battery, or a ReceivedState of a BatterySimState from
 another process); ``publish_once()`` is called at ``rate`` Hz. The rules (stale,
 alarms, send now, diagnostics) are core/status_rules.py's.
 """
-from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 
 from battery_simulator.core import ros_names
+from battery_simulator.core.diagnostics import DIAGNOSTIC_PERIOD_S
 from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.status_rules import StatusRules
+from battery_simulator.msg import BatterySimState
+from battery_simulator.ros2.messages import ReceivedState
 from battery_simulator.ros2.qos import LATCHED_QOS, STATUS_QOS
+from battery_simulator.ros2.startup import steady_clock
 
 
 class BatteryStatePublisher:
@@ -66,3 +70,31 @@ class BatteryStatePublisher:
         return DiagnosticStatus(name=self._diagnostic_name, level=bytes([report.level]), message=report.message,
                                 hardware_id=report.hardware_id,
                                 values=[KeyValue(key=key, value=value) for key, value in report.values])
+
+
+def diagnostics_publisher(node, status_fronts):
+    """publish(): every status front's "Battery" status in one DiagnosticArray on /diagnostics."""
+    publisher = node.create_publisher(DiagnosticArray, '/diagnostics', 10)
+
+    def publish():
+        array = DiagnosticArray(status=[front.diagnostic_status() for front in status_fronts])
+        array.header.stamp = node.get_clock().now().to_msg()
+        publisher.publish(array)
+    return publish
+
+
+def publish_diagnostics(node, status_fronts):
+    """The diagnostics every DIAGNOSTIC_PERIOD_S, on a timer of their own (one battery)."""
+    return node.create_timer(DIAGNOSTIC_PERIOD_S, diagnostics_publisher(node, status_fronts), clock=steady_clock())
+
+
+def follow_battery(node, settings, log):
+    """A BatteryStatePublisher on ``node`` following the state topic of the battery of its namespace (a
+    battery_simulator node in another process: ROS 1's battery_state_pub), with its timers."""
+    status = BatteryStatePublisher(node, '', node.get_fully_qualified_name().lstrip('/'), log=log, **settings)
+    node.create_subscription(BatterySimState, ros_names.STATE_TOPIC,
+                             lambda msg: status.on_state(ReceivedState(msg), msg.publish_now), STATUS_QOS)
+    node.create_timer(1.0 / settings['rate'], status.publish_once, clock=steady_clock())
+    publish_diagnostics(node, [status])
+    log.info('battery_state_pub: following %s', node.resolve_topic_name(ros_names.STATE_TOPIC))
+    return status
