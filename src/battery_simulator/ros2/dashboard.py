@@ -60,7 +60,8 @@ from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SE
 from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, LEVEL_KINDS, NODE_NAME, SERVICE_WAIT_S,
                                                    battery_values, call_line, finish_settings, fleet_host,
                                                    listen_problem, ready_line, request_fields, ros1_type_name,
-                                                   service_name, sim_values, subscriptions)
+                                                   service_name, subscriptions, take_battery, take_level,
+                                                   take_sim_state)
 from battery_simulator.web.topic_discovery import FLEET_STATE_TYPE, fleet_battery_topic, namespace_of
 
 SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
@@ -194,20 +195,14 @@ class BatteryDashboard(Node):
             self._backlog_timer = None
 
     # -- callbacks (the executor's thread)
-    def _on_battery(self, msg, argument):
-        values = battery_values(msg)
-        with self.hub.lock:
-            self.hub.model.on_battery(argument, values, time.time())
+    def _on_battery(self, msg, battery):
+        take_battery(self.hub, msg, battery)
 
-    def _on_level(self, msg, argument):
-        battery, kind = argument
-        with self.hub.lock:
-            self.hub.model.on_level_topic(battery, kind, msg.data, time.time())
+    def _on_level(self, msg, battery_and_kind):
+        take_level(self.hub, msg, battery_and_kind)
 
-    def _on_sim_state(self, msg, argument):
-        sim = sim_values(msg)
-        with self.hub.lock:
-            self.hub.model.on_sim_state(argument, sim, time.time())
+    def _on_sim_state(self, msg, battery):
+        take_sim_state(self.hub, msg, battery)
 
     def _on_fleet(self, msg, info, argument):
         """Every host publishes its robots on the one topic: merged by robot name, each robot's host is the

@@ -6,6 +6,7 @@ graph, the services the controls call and the lines a node says.
 """
 import errno
 import math
+import time
 
 from battery_simulator.core import ros_names
 from battery_simulator.core.node_settings import Setting
@@ -73,6 +74,27 @@ def sim_values(msg):
     values = {field: getattr(msg, field) for field in SIM_FIELDS}
     values['active_faults'] = list(values['active_faults'])
     return values
+
+
+def take_battery(hub, msg, battery):
+    """A BatteryState of ``battery``'s topic into the hub's model (both nodes' subscription callback)."""
+    values = battery_values(msg)
+    with hub.lock:
+        hub.model.on_battery(battery, values, time.time())
+
+
+def take_level(hub, msg, battery_and_kind):
+    """A battery_low / battery_critical Bool of ``battery`` (``kind``: low or critical) into the hub's model."""
+    battery, kind = battery_and_kind
+    with hub.lock:
+        hub.model.on_level_topic(battery, kind, msg.data, time.time())
+
+
+def take_sim_state(hub, msg, battery):
+    """A BatterySimState of ``battery``'s server into the hub's model."""
+    sim = sim_values(msg)
+    with hub.lock:
+        hub.model.on_sim_state(battery, sim, time.time())
 
 
 def fleet_host(publisher, fleet_topic):
