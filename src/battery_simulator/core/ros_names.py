@@ -22,6 +22,15 @@ BATTERY_CRITICAL = 'battery_critical'
 CMD_VEL = 'cmd_vel'
 CHARGER_CONTACT = 'charger_contact'
 ODOM = 'odom'
+#: the cut-off gate's input and output (demo.launch remaps them: cmd_vel_nav -> gate -> cmd_vel)
+CMD_VEL_IN = 'cmd_vel_in'
+CMD_VEL_OUT = 'cmd_vel_out'
+#: patrol_and_dock's phase (std_msgs/String, latched)
+PHASE = 'patrol_and_dock/phase'
+#: the global topics: simulated time (sim_clock), the REP-107 diagnostics, ROS 2's battery claims (Part 3)
+CLOCK = '/clock'
+DIAGNOSTICS = '/diagnostics'
+BATTERY_CLAIMS = '/battery_claims'
 SET_LOAD = 'battery_simulator/set_load'
 SET_CHARGING = 'battery_simulator/set_charging'
 SET_STATE = 'battery_simulator/set_state'

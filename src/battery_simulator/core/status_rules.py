@@ -21,6 +21,10 @@ from battery_simulator.core.latest_state import LatestState
 from battery_simulator.core.level_alarm import LevelAlarm
 
 ALARMS = ('low', 'critical')
+#: a burst of send-now changes (a flood of services or contact changes) goes out as at most one battery_status per
+#: battery per this, carrying its last state (ROS 1's ChangeLoop; on ROS 2 each is sent in the turn of its change,
+#: before the service's reply, which no gap may delay: docs/development.md)
+URGENT_GAP_S = 0.02
 
 #: what taking a state asks of the front end: the alarms whose value changed ((name, active), ...) and
 #: whether to publish now (a service's change, or a change of power_supply_status)

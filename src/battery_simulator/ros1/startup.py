@@ -8,6 +8,7 @@ import time
 import rosgraph
 import rospy
 
+from battery_simulator.core import ros_names
 from battery_simulator.core.parameter_rules import is_number, number_from_text
 from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
@@ -62,14 +63,14 @@ def clock_publishers(period_s=10.0):
     if time.monotonic() - looked_up_at >= period_s:
         try:
             publishers, _, _ = rosgraph.Master(rospy.get_name()).getSystemState()
-            names = next((nodes for topic, nodes in publishers if topic == '/clock'), [])
+            names = next((nodes for topic, nodes in publishers if topic == ros_names.CLOCK), [])
         except (OSError, rosgraph.MasterException):
             names = []
         _clock_publishers = (time.monotonic(), names)
     return names
 
 
-def batteries_served_elsewhere(namespaces, service='battery_simulator/set_state'):
+def batteries_served_elsewhere(namespaces, service=ros_names.SET_STATE):
     """{namespace: node} for each of ``namespaces`` ('/robot1/') whose battery another node already serves
     (its ``service`` is registered at the master by a node other than this one: a respawned node has
     this node's name and takes its place). One master call, at start-up."""

@@ -119,7 +119,7 @@ class BatterySimServer:
         """Step the battery to now, publish its state, feed and end the active goal."""
         update = self.battery.update()
         if update.time_jump is not None:
-            publishers = [info.node_name for info in self.node.get_publishers_info_by_topic('/clock')]
+            publishers = [info.node_name for info in self.node.get_publishers_info_by_topic(ros_names.CLOCK)]
             self._lines.time_jump(update, self.battery.max_time_jump, publishers)
         state = SimState(update.record)
         if self._state_pub.get_subscription_count() > 0:

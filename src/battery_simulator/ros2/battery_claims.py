@@ -18,7 +18,7 @@ from battery_simulator.ros2.startup import StartupError
 # -- one battery per name (Part 3's rule on ROS 2) -----------------------------------------------------
 
 #: every process that runs batteries says which names (namespaces) it serves, since when, on this topic
-CLAIMS_TOPIC = '/battery_claims'
+CLAIMS_TOPIC = ros_names.BATTERY_CLAIMS
 CLAIMS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: how long a process listens for the claims of others before it runs its batteries

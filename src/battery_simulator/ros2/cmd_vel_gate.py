@@ -15,7 +15,7 @@ from battery_simulator.ros2.twist import TwistPublisher, TwistSubscriber
 
 
 class CmdVelGate:
-    def __init__(self, node, cmd_vel_in='cmd_vel_in', cmd_vel_out='cmd_vel_out'):
+    def __init__(self, node, cmd_vel_in=ros_names.CMD_VEL_IN, cmd_vel_out=ros_names.CMD_VEL_OUT):
         self._node = node
         self._gate = rule.CmdVelGate()
         self._pub = TwistPublisher(node, cmd_vel_out)

@@ -74,7 +74,7 @@ class BatteryStatePublisher:
 
 def diagnostics_publisher(node, status_fronts):
     """publish(): every status front's "Battery" status in one DiagnosticArray on /diagnostics."""
-    publisher = node.create_publisher(DiagnosticArray, '/diagnostics', 10)
+    publisher = node.create_publisher(DiagnosticArray, ros_names.DIAGNOSTICS, 10)
 
     def publish():
         array = DiagnosticArray(status=[front.diagnostic_status() for front in status_fronts])
