@@ -16,7 +16,7 @@ import copy
 from collections import namedtuple
 
 from battery_simulator.core import diagnostics
-from battery_simulator.core.battery import apply_conventions
+from battery_simulator.core.battery_record import apply_conventions
 from battery_simulator.core.latest_state import LatestState
 from battery_simulator.core.level_alarm import LevelAlarm
 

@@ -45,7 +45,7 @@ import rospy
 from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core import ros_names
-from battery_simulator.core.battery import UNREADABLE, BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage
+from battery_simulator.core.battery import UNREADABLE, BatteryError, Goal, GoalEnd
 from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.server_log import SHUTDOWN_TEXT, ServerLog
@@ -58,7 +58,6 @@ from battery_simulator.ros1.startup import clock_publishers
 from battery_simulator.ros1.velocity import twist_of_any
 
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
-__all__ = ['BatterySimServer', 'noisy_current', 'noisy_voltage']
 
 
 class BatterySimServer:

@@ -2,7 +2,7 @@
 message classes only)."""
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.core.battery import BatteryRecord, fill_fields as fill
+from battery_simulator.core.battery_record import BatteryRecord, fill_fields as fill
 from battery_simulator.msg import BatterySimState
 
 
