@@ -9,7 +9,7 @@ import rosgraph
 import rospy
 
 from battery_simulator.core import ros_names
-from battery_simulator.core.parameter_rules import is_number, number_from_text
+from battery_simulator.core.parameter_rules import is_number, number_from_text, refusal
 from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
 
@@ -29,8 +29,7 @@ def checked_param(name, default, check, allowed):
     if is_number(default):
         value = number_from_text(value)
     if not check(value):
-        raise StartupError('parameter %s = %r is invalid: must be %s'
-                           % (rospy.resolve_name(name), value, allowed))
+        raise StartupError(refusal(rospy.resolve_name(name), value, 'must be ' + allowed))
     return value
 
 
@@ -48,8 +47,7 @@ def check_state_file_param(path, name='~state_file', fleet=False):
         try:
             check_state_file(path, fleet, holder=rospy.get_name())
         except StateFileError as error:
-            raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name(name), path, error)) \
-                from None
+            raise StartupError(refusal(rospy.resolve_name(name), path, error)) from None
 
 
 _clock_publishers = (-float('inf'), [])   # (monotonic time, names) of the last lookup

@@ -25,7 +25,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from battery_simulator.core.node_settings import SettingError, check_setting
-from battery_simulator.core.parameter_rules import number_from_text
+from battery_simulator.core.parameter_rules import number_from_text, refusal
 from battery_simulator.ros2.rcl_args import rcl_problem
 
 EXIT_BAD_PARAMETER = 2
@@ -126,8 +126,7 @@ def parameter_refusal(node, parameters):
                 parameter.name, node.get_fully_qualified_name(), parameter.name)
         if not described.dynamic_typing and parameter.type_.value != described.type and \
                 described.type in TYPE_WORDS:
-            return '%s = %r is invalid: must be %s' % (parameter.name, parameter.value,
-                                                      TYPE_WORDS[described.type])
+            return refusal(parameter.name, parameter.value, 'must be ' + TYPE_WORDS[described.type])
     return None
 
 

@@ -10,7 +10,7 @@ import time
 
 from battery_simulator.core import ros_names
 from battery_simulator.core.node_settings import Setting
-from battery_simulator.core.parameter_rules import is_number
+from battery_simulator.core.parameter_rules import is_number, refusal
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS
 from battery_simulator.web.topic_discovery import discover
 
@@ -166,10 +166,9 @@ def listen_problem(error, host, port, host_name, port_name):
     """The fatal line for an OSError of listening on host:port (``host_name``/``port_name``: how the node
     names its parameters)."""
     if error.errno == errno.EADDRINUSE:
-        return 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (port_name, port, host, port)
+        return refusal(port_name, port, '%s:%d is in use; choose another port' % (host, port))
     # an address this machine has not (or a name that does not resolve)
-    return 'parameter %s = %r is invalid: cannot listen on %s:%d (%s)' % (host_name, host, host, port,
-                                                                          error.strerror or error)
+    return refusal(host_name, host, 'cannot listen on %s:%d (%s)' % (host, port, error.strerror or error))
 
 
 def page_url(host, port):
