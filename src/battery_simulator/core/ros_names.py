@@ -38,9 +38,6 @@ RESET = 'battery_simulator/reset'
 INJECT_FAULT = 'battery_simulator/inject_fault'
 PREDICT = 'battery_simulator/predict'
 
-#: sensor_msgs/BatteryState.power_supply_status by BatterySimState.charging_state
-CHARGING_STATES = ('Charging', 'Discharging', 'Full', 'Not Charging', 'Empty')
-
 
 def robot_topic(namespace, name):
     """``name`` under a robot's ``namespace`` ('' or '/robot1/', as the nodes hold it); an absolute name stays."""
