@@ -22,8 +22,8 @@ from battery_simulator.core.level_alarm import LevelAlarm
 
 ALARMS = ('low', 'critical')
 #: a burst of send-now changes (a flood of services or contact changes) goes out as at most one battery_status per
-#: battery per this, carrying its last state (ROS 1's ChangeLoop; on ROS 2 each is sent in the turn of its change,
-#: before the service's reply, which no gap may delay: docs/development.md)
+#: battery per this, carrying its last state (ROS 1's ChangeLoop thread; ROS 2's BatteryStatePublisher, a one-shot
+#: timer)
 URGENT_GAP_S = 0.02
 
 #: what taking a state asks of the front end: the alarms whose value changed ((name, active), ...) and

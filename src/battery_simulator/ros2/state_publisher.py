@@ -5,7 +5,13 @@ It runs no model: ``on_state(state, publish_now)`` takes each update's state (a
 SimState of an in-process battery, or a ReceivedState of a BatterySimState from
 another process); ``publish_once()`` is called at ``rate`` Hz. The rules (stale,
 alarms, send now, diagnostics) are core/status_rules.py's.
+
+A burst of send-now changes (a flapping contact, a storm of services) goes out
+as at most one message every URGENT_GAP_S, carrying its last state, as ROS 1's
+ChangeLoop sends it: the first at once, the rest held by a one-shot timer.
 """
+import time
+
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
@@ -13,7 +19,7 @@ from std_msgs.msg import Bool
 from battery_simulator.core import ros_names
 from battery_simulator.core.diagnostics import DIAGNOSTIC_PERIOD_S
 from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
-from battery_simulator.core.status_rules import StatusRules
+from battery_simulator.core.status_rules import URGENT_GAP_S, StatusRules
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros2.messages import ReceivedState
 from battery_simulator.ros2.qos import LATCHED_QOS, STATUS_QOS
@@ -39,15 +45,31 @@ class BatteryStatePublisher:
                             for name, topic in (('low', ros_names.BATTERY_LOW), ('critical', ros_names.BATTERY_CRITICAL))}
         for publisher in self._alarm_pubs.values():
             publisher.publish(Bool(data=False))
+        self._sent_now_at = -URGENT_GAP_S   # monotonic time of the last send-now message
+        self._held = None                   # the one-shot timer of a held send-now, while one waits
 
     def on_state(self, state, publish_now=False):
         """The battery's state after an update; a service's change (``publish_now``) or a status change
-        goes out at once."""
+        goes out at once (a burst: one message every URGENT_GAP_S, the last state)."""
         reaction = self._rules.take(state, publish_now)
         for name, active in reaction.alarm_changes:
             self._alarm_pubs[name].publish(Bool(data=active))
         if reaction.publish_now:
+            self._send_now()
+
+    def _send_now(self):
+        wait_s = self._sent_now_at + URGENT_GAP_S - time.monotonic()
+        if wait_s <= 0.0:
+            self._sent_now_at = time.monotonic()
             self.publish_once()
+        elif self._held is None:   # else the held one goes out with the latest state
+            self._held = self._node.create_timer(wait_s, self._send_held, clock=steady_clock())
+
+    def _send_held(self):
+        self._node.destroy_timer(self._held)   # one shot: a fleet host's thousand robots keep no idle timers
+        self._held = None
+        self._sent_now_at = time.monotonic()
+        self.publish_once()
 
     def latest_battery(self):
         """The latest BatteryState (None before the first, or while a sensor dropout holds it back)."""
