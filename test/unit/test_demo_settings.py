@@ -13,7 +13,8 @@ NAMES = [s.name for s in demo_settings.SETTINGS if s.name != 'config']   # demo.
 
 
 def ros1_defaults():
-    return {arg.get('name'): arg.get('default') for arg in ElementTree.parse(LAUNCH / 'demo.launch').getroot().findall('arg')}
+    root = ElementTree.parse(LAUNCH / 'demo.launch').getroot()
+    return {arg.get('name'): arg.get('default') for arg in root.findall('arg')}
 
 
 @pytest.mark.parametrize('name', NAMES)

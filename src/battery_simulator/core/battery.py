@@ -319,6 +319,14 @@ class Battery:
             self._account_motion(now)   # the previous command's energy up to now
             self._motion = (now, speed, turn)
 
+    def take_cmd_vel(self, twist):
+        """A cmd_vel's twist as both front ends take it: on_cmd_vel, a command it refuses logged (at most every
+        INVALID_LOG_PERIOD_S) and dropped: the sender is not told, and the motion in force stays."""
+        try:
+            self.on_cmd_vel(twist.linear.x, twist.angular.z)
+        except BatteryError as error:
+            self._log.error_throttle(INVALID_LOG_PERIOD_S, '%s', error)
+
     def change_contact(self, connected, source):
         """A charger contact report: only a change acts (connected -> charge, disconnected -> discharge).
         True if it changed the mode (the front end writes the mode value)."""

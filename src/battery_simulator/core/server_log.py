@@ -3,14 +3,12 @@ progress rule. Both front ends' action_server.py write a battery's lines through
 change or a level says the same on ROS 1 and ROS 2."""
 import time
 
-from battery_simulator.core.battery import GoalEnd
+from battery_simulator.core.battery import INVALID_LOG_PERIOD_S, GoalEnd
 
 #: lines an input can repeat at any rate (contact flapping, a flood of goals) at most this often
 LOG_PERIOD_S = 1.0
 #: a clock that jumps back and forth (two /clock publishers) warns this often
 JUMP_LOG_PERIOD_S = 10.0
-#: a bad input (a cmd_vel the battery refuses, a message of another type) is said this often
-INPUT_ERROR_PERIOD_S = 10.0
 #: the progress line: one per whole percent, at most this often
 PROGRESS_PERIOD_S = 1.0
 #: why a goal ends when the server stops (ROS 1 preempts it, ROS 2 aborts it: the text is the same)
@@ -52,7 +50,8 @@ class ServerLog:
         self.log.warn_throttle(JUMP_LOG_PERIOD_S, '%s', update.time_jump_warning(max_jump_s, clock_publishers))
 
     def input_error(self, text, *args):
-        self.log.error_throttle(INPUT_ERROR_PERIOD_S, text, *args)
+        """A bad input (a message of another type): as often as the battery says a command it refuses."""
+        self.log.error_throttle(INVALID_LOG_PERIOD_S, text, *args)
 
     def progress(self, snapshot):
         """``Discharging... 57 % (11.62 V, -1.50 A)``: when the whole percent changed, at most every

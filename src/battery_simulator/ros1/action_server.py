@@ -45,7 +45,7 @@ import rospy
 from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core import ros_names
-from battery_simulator.core.battery import UNREADABLE, BatteryError, Goal, GoalEnd
+from battery_simulator.core.battery import UNREADABLE, Goal, GoalEnd
 from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.server_log import SHUTDOWN_TEXT, ServerLog
@@ -295,10 +295,7 @@ class BatterySimServer:
             self._lines.input_error('%s: type %s ignored (Twist or TwistStamped)', self._ns + ros_names.CMD_VEL,
                                     raw._connection_header.get('type'))
             return
-        try:
-            self.battery.on_cmd_vel(twist.linear.x, twist.angular.z)
-        except BatteryError as error:
-            self._lines.input_error('%s', error)
+        self.battery.take_cmd_vel(twist)
 
     def _on_contact(self, msg):
         self.change_contact(bool(msg.data), 'charger contact')

@@ -68,8 +68,9 @@ class BatteryDashboard:
         self.scan_period = scan_period
         self._subscribers = {}    # (kind, topic) -> rospy.Subscriber
         self._stop = threading.Event()
-        self._kinds = {'battery': (BatteryState, self._on_battery), 'low': (Bool, self._on_level),
-                       'critical': (Bool, self._on_level), 'state': (BatterySimState, self._on_sim_state),
+        self._kinds = {'battery': (BatteryState, self._into_hub(take_battery)),
+                       'low': (Bool, self._into_hub(take_level)), 'critical': (Bool, self._into_hub(take_level)),
+                       'state': (BatterySimState, self._into_hub(take_sim_state)),
                        'fleet': (BatteryFleetState, self._on_fleet)}
 
     # -- discovery
@@ -100,14 +101,9 @@ class BatteryDashboard:
         self._stop.set()
 
     # -- callbacks (rospy's threads)
-    def _on_battery(self, msg, battery):
-        take_battery(self.hub, msg, battery)
-
-    def _on_level(self, msg, battery_and_kind):
-        take_level(self.hub, msg, battery_and_kind)
-
-    def _on_sim_state(self, msg, battery):
-        take_sim_state(self.hub, msg, battery)
+    def _into_hub(self, take):
+        """A subscription's callback: ``take`` (web/dashboard_rules.py) puts the message into the hub's model."""
+        return lambda msg, argument: take(self.hub, msg, argument)
 
     def _on_fleet(self, msg, fleet_and_namespace):
         """Every host publishes its robots on the one topic (older hosts on their own ``<host>/states``):

@@ -210,10 +210,7 @@ class BatterySimServer:
     # -- inputs ----------------------------------------------------------------------------------
 
     def _on_cmd_vel(self, twist):
-        try:
-            self.battery.on_cmd_vel(twist.linear.x, twist.angular.z)
-        except BatteryError as error:
-            self._lines.input_error('%s', error)
+        self.battery.take_cmd_vel(twist)
 
     def _on_contact(self, msg):
         self.change_contact(bool(msg.data), 'charger contact')

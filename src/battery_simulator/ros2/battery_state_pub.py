@@ -38,8 +38,8 @@ def main(args=None):
             description='how long to look for a battery_simulator node in this namespace before running '
                         'a battery of its own, s', read_only=True, dynamic_typing=True)).value
         if not (is_number(wait_s) and wait_s >= 0):
-            exit_on_startup_error(StartupError(refusal(parameter_name(node, 'wait_s'), wait_s, 'must be a number >= 0 s')),
-                                  node.get_logger())
+            reason = refusal(parameter_name(node, 'wait_s'), wait_s, 'must be a number >= 0 s')
+            exit_on_startup_error(StartupError(reason), node.get_logger())
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         log = RobotLog(node.get_logger())

@@ -101,8 +101,9 @@ class BatteryDashboard(Node):
         self.settings = finish_settings(declare_settings(self, DASHBOARD_SETTINGS))
         self.hub = None
         self._subscribed = {}   # (kind, topic) -> Subscription
-        self._kinds = {'battery': (BatteryState, self._on_battery), 'low': (Bool, self._on_level),
-                       'critical': (Bool, self._on_level), 'state': (BatterySimState, self._on_sim_state),
+        self._kinds = {'battery': (BatteryState, self._into_hub(take_battery)),
+                       'low': (Bool, self._into_hub(take_level)), 'critical': (Bool, self._into_hub(take_level)),
+                       'state': (BatterySimState, self._into_hub(take_sim_state)),
                        'fleet': (BatteryFleetState, self._on_fleet)}
         self._fleet_named = {}     # battery topic -> monotonic time a fleet message last named it
         self._hosts = {}           # publisher GID -> node name (fleet hosts)
@@ -195,14 +196,9 @@ class BatteryDashboard(Node):
             self._backlog_timer = None
 
     # -- callbacks (the executor's thread)
-    def _on_battery(self, msg, battery):
-        take_battery(self.hub, msg, battery)
-
-    def _on_level(self, msg, battery_and_kind):
-        take_level(self.hub, msg, battery_and_kind)
-
-    def _on_sim_state(self, msg, battery):
-        take_sim_state(self.hub, msg, battery)
+    def _into_hub(self, take):
+        """A subscription's callback: ``take`` (web/dashboard_rules.py) puts the message into the hub's model."""
+        return lambda msg, argument: take(self.hub, msg, argument)
 
     def _on_fleet(self, msg, info, argument):
         """Every host publishes its robots on the one topic: merged by robot name, each robot's host is the
