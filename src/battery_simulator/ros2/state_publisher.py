@@ -58,11 +58,13 @@ class BatteryStatePublisher:
             self._send_now()
 
     def _send_now(self):
+        if self._held is not None:   # one is held: it goes out with the latest state (a late timer included)
+            return
         wait_s = self._sent_now_at + URGENT_GAP_S - time.monotonic()
         if wait_s <= 0.0:
             self._sent_now_at = time.monotonic()
             self.publish_once()
-        elif self._held is None:   # else the held one goes out with the latest state
+        else:
             self._held = self._node.create_timer(wait_s, self._send_held, clock=steady_clock())
 
     def _send_held(self):
