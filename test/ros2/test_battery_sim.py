@@ -156,6 +156,16 @@ def test_services(sim, probe):
     assert not bad_plan.success and bad_plan.message
 
 
+def test_the_progress_line_as_on_ros_1(sim, probe):
+    """battery_sim says its level a whole percent at a time, as battery_sim_server.py does (core/server_log.py;
+    before issue 41 ROS 2 had no progress line)."""
+    assert set_state(probe, '/sim', 60.0).success
+    deadline = time.monotonic() + 20.0   # 'Discharging... 59 % (...)' or 'Charging... 61 % (...)'
+    while not any(line in sim.output() for line in ('ing... 59 %', 'ing... 60 %', 'ing... 61 %')):
+        assert time.monotonic() < deadline, 'no progress line in 20 s:\n' + sim.output()[-2000:]
+        time.sleep(0.1)
+
+
 def test_contact_flapping_is_coalesced_as_on_ros_1(sim, probe):
     """A flapping contact (each change a send-now battery_status) goes out as at most one message every
     URGENT_GAP_S plus the rate's (ROS 1's test_hardening bound), and the last state is the one published."""
