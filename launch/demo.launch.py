@@ -14,27 +14,29 @@ from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription, Opaq
 from launch.launch_description_sources import PythonLaunchDescriptionSource
 from launch_ros.actions import Node
 
+from battery_simulator.robot.demo_settings import CLOCK_WAIT_FOR as WAIT_FOR, START_X_M, launch_default
+
 HERE = os.path.dirname(os.path.abspath(__file__))
+#: the demo's arguments; the defaults of battery_demo's settings are robot/demo_settings.py's
 ARGUMENTS = (
     ('namespace', '', 'Namespace of the robot; empty: the root.'),
-    ('speed', '60', 'The whole demo runs on sim_clock this many times as fast as wall time.'),
-    ('tick_hz', '250', 'sim_clock ticks per wall second (every node handles each tick).'),
-    ('initial_percentage', '40', 'Battery level at start, %.'),
-    ('gauge', 'ideal', 'ideal: the robot reads the truth; realistic: config/battery_realistic.yaml; impedance_track, '
-     'modelgauge: a learning gauge (config/battery_impedance_track.yaml, battery_modelgauge.yaml) and the robot rests '
-     'on the dock once full.'),
-    ('config', '', 'Battery parameters (empty: by gauge).'),
-    ('rate', '2.0', 'battery_status rate, Hz.'),
-    ('low_percentage', '0.25', 'The robot heads for the dock below this fraction.'),
-    ('robot_speed', '0.3', "The robot's cruising speed, m/s."),
-    ('dock_x', '0.0', 'The dock, x (m).'),
-    ('dock_y', '0.0', 'The dock, y (m).'),
+    ('speed', launch_default('speed'), 'The whole demo runs on sim_clock this many times as fast as wall time.'),
+    ('tick_hz', launch_default('tick_hz'), 'sim_clock ticks per wall second (every node handles each tick).'),
+    ('initial_percentage', launch_default('initial_percentage'), 'Battery level at start, %.'),
+    ('gauge', launch_default('gauge'), 'ideal: the robot reads the truth; realistic: config/battery_realistic.yaml; '
+     'impedance_track, modelgauge: a learning gauge (config/battery_impedance_track.yaml, battery_modelgauge.yaml) '
+     'and the robot rests on the dock once full.'),
+    ('config', launch_default('config'), 'Battery parameters (empty: by gauge).'),
+    ('rate', launch_default('rate'), 'battery_status rate, Hz.'),
+    ('low_percentage', launch_default('low_percentage'), 'The robot heads for the dock below this fraction.'),
+    ('robot_speed', launch_default('robot_speed'), "The robot's cruising speed, m/s."),
+    ('dock_x', launch_default('dock_x'), 'The dock, x (m).'),
+    ('dock_y', launch_default('dock_y'), 'The dock, y (m).'),
     ('dashboard', 'false', 'true: also the live dashboard (dashboard.launch.py).'),
     ('dashboard_port', '8090', 'With dashboard: its TCP port.'),
 )
 #: ROS time starts once every node of the demo is up: a slow start costs no battery
-CLOCK_WAIT_FOR = 'battery_simulator/state,battery_status,battery_low,odom,charger_contact,cmd_vel,patrol_and_dock/phase'
-
+CLOCK_WAIT_FOR = ','.join(WAIT_FOR)
 
 def config_path(values):
     """The battery config: the config argument, or the gauge's (robot/demo_gauges.py)."""
@@ -64,7 +66,7 @@ def _actions(context):
     actions += [
         # off the dock: a robot that starts on it would charge at once
         Node(package='battery_simulator', executable='fake_base', name='fake_base', namespace=ns, output='screen',
-             parameters=[{'x': 1.0, **use_sim_time}]),
+             parameters=[{'x': START_X_M, **use_sim_time}]),
         Node(package='battery_simulator', executable='battery_cmd_vel_gate', name='battery_cmd_vel_gate',
              namespace=ns, output='screen', parameters=[use_sim_time],
              remappings=[('cmd_vel_in', 'cmd_vel_nav'), ('cmd_vel_out', 'cmd_vel')]),

@@ -1,5 +1,5 @@
 #!/usr/bin/env -S --block-signal=SIGINT /usr/bin/python3
 """The battery_simulator action server node (BatterySimServer)."""
-from battery_simulator.ros1.battery_sim_server import main
+from battery_simulator.ros1.battery_sim import main
 
 main()

@@ -8,7 +8,7 @@ clean. The node must then end with one FATAL line, be respawned and resume.
 """
 import rospy
 
-from battery_simulator.ros1 import battery_sim_server
+from battery_simulator.ros1 import battery_sim
 from battery_simulator.core.battery_model import BatteryModel
 
 PLANTED_PARAM = '~planted'
@@ -29,10 +29,10 @@ def plant_fault(after_updates):
 
 
 def main():
-    rospy.init_node('BatterySimServer', disable_signals=True)   # battery_sim_server.main() initialises again, alike
+    rospy.init_node('BatterySimServer', disable_signals=True)   # battery_sim.main() initialises again, alike
     if not rospy.get_param(PLANTED_PARAM, False):
         plant_fault(int(rospy.get_param('~planted_after_updates', 30)))
-    battery_sim_server.main()
+    battery_sim.main()
 
 
 if __name__ == '__main__':

@@ -22,6 +22,7 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
+from battery_simulator.core.status_rules import URGENT_GAP_S   # battery_state_pub: one immediate message per 20 ms
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import InjectFault, SetLoad, SetState
 from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
@@ -30,7 +31,6 @@ MODE_PARAM = 'MyRobot/BatteryStatus'
 NAN, INF = float('nan'), float('inf')
 TIME_SCALE = 10.0
 RATE_HZ = 2.0
-URGENT_GAP_S = 0.02   # battery_state_pub: at most one immediate message per 20 ms
 FAULTS = ('charger_fault', 'overheat', 'sensor_dropout', 'measurement_noise')
 DISCHARGING = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
 CHARGING = BatteryState.POWER_SUPPLY_STATUS_CHARGING

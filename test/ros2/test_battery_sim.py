@@ -19,6 +19,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from battery_simulator.action import BatterySim
 from battery_simulator.core.status_codes import DIAGNOSTIC_KEYS, FAULTS
+from battery_simulator.core.status_rules import URGENT_GAP_S
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
 from ros2_probe import LATCHED, NodeProcess, Probe, udp_sockets
@@ -153,6 +154,39 @@ def test_services(sim, probe):
     assert answer.success and answer.feasible and 0 < answer.end_percentage < 100, answer
     bad_plan = probe.call(Predict, ns + 'predict', Predict.Request(duration_s=[-1.0]))
     assert not bad_plan.success and bad_plan.message
+
+
+def test_the_progress_line_as_on_ros_1(sim, probe):
+    """battery_sim says its level a whole percent at a time, as battery_sim_server.py does (core/server_log.py;
+    before issue 41 ROS 2 had no progress line)."""
+    assert set_state(probe, '/sim', 60.0).success
+    deadline = time.monotonic() + 20.0   # 'Discharging... 59 % (...)' or 'Charging... 61 % (...)'
+    while not any(line in sim.output() for line in ('ing... 59 %', 'ing... 60 %', 'ing... 61 %')):
+        assert time.monotonic() < deadline, 'no progress line in 20 s:\n' + sim.output()[-2000:]
+        time.sleep(0.1)
+
+
+def test_contact_flapping_is_coalesced_as_on_ros_1(sim, probe):
+    """A flapping contact (each change a send-now battery_status) goes out as at most one message every
+    URGENT_GAP_S plus the rate's (ROS 1's test_hardening bound), and the last state is the one published."""
+    contact = probe.node.create_publisher(Bool, '/sim/charger_contact', 100)
+    deadline = time.monotonic() + 10.0
+    while contact.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    received = probe.follow('/sim/battery_status', BatteryState)
+    flips, seen, started = 0, len(received), time.monotonic()
+    while time.monotonic() - started < 2.0:
+        contact.publish(Bool(data=flips % 2 == 0))
+        flips += 1
+        time.sleep(0.001)
+    contact.publish(Bool(data=False))   # ends disconnected: discharging
+    time.sleep(0.2)   # the changes still queued are taken meanwhile: counted with the time they take
+    messages, elapsed_s = len(received) - seen, time.monotonic() - started
+    allowed = elapsed_s / URGENT_GAP_S + elapsed_s * 5.0 + 5
+    assert messages <= allowed, '%d battery_status in %.1f s for %d contact changes (at most %d)' % (
+        messages, elapsed_s, flips, allowed)
+    assert status_after(probe, '/sim', lambda m: m.power_supply_status == DISCHARGING, 2.0) is not None
+    probe.node.destroy_publisher(contact)
 
 
 def test_faults(sim, probe):

@@ -8,8 +8,8 @@ from rclpy.node import Node
 
 from battery_simulator.core.config_files import default_config_path, load_yaml
 from battery_simulator.ros2.action_server import BatterySimServer
-from battery_simulator.ros2.battery_sim import make_battery
-from battery_simulator.ros2.log import NodeLog
+from battery_simulator.ros2.battery_settings import make_battery
+from battery_simulator.ros2.log import RobotLog
 from ros2_probe import NodeProcess, Probe
 
 
@@ -43,8 +43,8 @@ def test_a_goal_after_server_shutting_down_is_rejected():
     node = Node('late_goal_server', namespace='/late_goal')
     try:
         settings = {'initial_percentage': 50.0, 'max_time_jump': 60.0}
-        battery = make_battery(node, settings, load_yaml(default_config_path()), False, NodeLog(node.get_logger()))
-        server = BatterySimServer(node, battery, '', NodeLog(node.get_logger()))
+        battery = make_battery(node, settings, load_yaml(default_config_path()), False, RobotLog(node.get_logger()))
+        server = BatterySimServer(node, battery, '', RobotLog(node.get_logger()))
         assert server._goal_response(None) == GoalResponse.ACCEPT
         server.finish()   # SIGINT or SIGTERM: goals ended, state saved, the last results on their way
         assert server._goal_response(None) == GoalResponse.REJECT, 'a goal accepted after "server shutting down"'

@@ -241,7 +241,7 @@ def test_bad_conventions_and_charger_keys_are_one_line_naming_the_key(values, me
 
 
 def test_apply_conventions_on_a_message_s_values():
-    from battery_simulator.core.battery import apply_conventions
+    from battery_simulator.core.battery_record import apply_conventions
     assert apply_conventions(-1.5, 0.8, None) == (-1.5, 0.8)
     assert apply_conventions(-1.5, 0.8, {'invert_current_sign': True}) == (1.5, 0.8)
     assert apply_conventions(2.0, 0.25, {'percentage_scale': 100}) == (2.0, 25.0)

@@ -4,14 +4,15 @@ from unittest import mock
 
 import pytest
 
+from battery_simulator.core import battery_record
+
 startup = pytest.importorskip('battery_simulator.ros1.startup', reason='needs the devel space (tools/run_tests.sh)')
-action_server = pytest.importorskip('battery_simulator.ros1.action_server')
 BatteryState = pytest.importorskip('sensor_msgs.msg').BatteryState
 
 
 @pytest.mark.parametrize('noise_v', [-1e6, -12.6, -6.0, 0.0, 1e6])
 def test_a_noisy_voltage_is_never_zero_negative_or_wild(noise_v):
-    reading = action_server.noisy_voltage(12.6, noise_v)
+    reading = battery_record.noisy_voltage(12.6, noise_v)
     assert 6.3 <= reading <= 25.2
 
 
@@ -23,7 +24,7 @@ def test_a_noisy_voltage_is_never_zero_negative_or_wild(noise_v):
     (BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING, 0.0, -0.25, -0.25),   # a sensor's offset around zero
 ])
 def test_a_noisy_current_never_contradicts_the_status(status, current_a, noise_a, expected):
-    assert action_server.noisy_current(current_a, noise_a, status) == expected
+    assert battery_record.noisy_current(current_a, noise_a, status) == expected
 
 
 def test_an_exception_that_ends_a_worker_ends_the_node_with_one_fatal_line():

@@ -4,7 +4,7 @@
 (wall time scaled, or a simulator's clock), the loads (motion from cmd_vel,
 named payloads), the charger contact and the mode with its goal rules, the
 test controls (set_state, reset, faults and noise) and the state record the
-nodes publish. The rospy server and publisher, the rospy fleet host and the
+nodes publish (core/battery_record.py). The rospy server and publisher, the rospy fleet host and the
 rclpy nodes only turn its records into messages, its errors into service
 replies and their inputs into its calls (as smach_ros wraps smach).
 
@@ -23,17 +23,17 @@ import pickle
 import random
 import threading
 import time
-from collections import namedtuple
 from dataclasses import replace
 
+from battery_simulator.core.battery_record import BatteryRecord, gauge_summary
 from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.gauge import CAPACITY_LEARNED, LOGGED_CORRECTION
-from battery_simulator.core.node_settings import MAX_TIME_SCALE
+from battery_simulator.core.node_settings import (MODE_ALLOWED, SettingError, check_setting, is_mode_value, refusal,
+                                                  setting)
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameter_rules import (MAX_SPEED_MPS, MAX_TURN_RADPS, ParameterError, is_number,
                                                     load_power_error)
-from battery_simulator.core.status_codes import (CHARGING_STATE, FAULTS, SUPPLY_HEALTH, SUPPLY_STATUS, TECHNOLOGY_LION,
-                                                 SupplyStatus)
+from battery_simulator.core.status_codes import EMPTY, FAULTS, FULL
 from battery_simulator.core.time_base import TimeBase
 
 #: under sim time, the largest forward step of ROS time between two updates that counts as elapsed, s.
@@ -62,11 +62,9 @@ def parse_mode(value):
     Unset (None) holds: IDLE."""
     if value is None:
         return Mode.IDLE
-    if isinstance(value, bool):
-        return Mode.CHARGE if value else Mode.DISCHARGE
-    if isinstance(value, (int, float)) and value in (0, 1):
-        return Mode.CHARGE if value == 1 else Mode.DISCHARGE
-    return None
+    if not is_mode_value(value):   # core/node_settings.py's rule of the mode's values (true / false, 1 / 0)
+        return None
+    return Mode.CHARGE if value == 1 else Mode.DISCHARGE   # True == 1
 
 
 class Goal:
@@ -75,7 +73,7 @@ class Goal:
     def __init__(self, charge):
         self.mode = Mode.CHARGE if charge else Mode.DISCHARGE
         self.target = Status.FULL if charge else Status.EMPTY
-        self.done_text = 'Full' if charge else 'Empty'
+        self.done_text = FULL if charge else EMPTY
 
 
 class GoalEnd:
@@ -87,99 +85,6 @@ class GoalEnd:
 
     def __repr__(self):
         return 'GoalEnd(%r, %r)' % (self.outcome, self.text)
-
-
-class BatteryRecord:
-    """One update's state as the nodes publish it, ROS-free.
-
-    The cheap fields a publisher reads at every update are attributes;
-    ``battery_fields()`` (the sensor_msgs/BatteryState fields, noise drawn
-    once) and ``sim_fields()`` (the rest of BatterySimState) are built at the
-    first call: a fleet host updates hundreds of batteries ten times a second
-    but publishes each once a second.
-    """
-
-    def __init__(self, snapshot, params, load_power_w=0.0, faults=frozenset(), noise=None, gauge=None):
-        self.snapshot = snapshot
-        self.params = params
-        self.gauge = gauge if gauge is not None else GaugeSummary(0, False, snapshot.capacity_ah, None)
-        self.percentage = snapshot.percentage / 100.0             # as BatteryState.percentage
-        status = reported_status(snapshot.status, self.gauge.full)
-        self.power_supply_status = SUPPLY_STATUS[status]
-        self.charging_state = CHARGING_STATE[status]
-        self.load_power_w = load_power_w
-        self.faults = frozenset(faults)
-        self.sensor_dropout = 'sensor_dropout' in self.faults
-        self._noise = noise if 'measurement_noise' in self.faults else None
-        self._battery = None
-
-    def battery_fields(self):
-        """sensor_msgs/BatteryState's fields (pack units: V, A, Ah, degC; percentage 0-1), header aside."""
-        if self._battery is None:
-            s, p = self.snapshot, self.params
-            voltage, current = s.voltage_v, s.current_a
-            cells = list(s.cell_voltages_v)
-            if self._noise is not None:
-                voltage = noisy_voltage(voltage, self._noise.gauss(0.0, p.voltage_noise_v))
-                current = noisy_current(current, self._noise.gauss(0.0, p.current_noise_a),
-                                        self.power_supply_status)
-                cells = [cell * voltage / s.voltage_v for cell in cells] if s.voltage_v > 0.0 else cells
-            self._battery = dict(
-                voltage=voltage, temperature=s.temperature_c, current=current, charge=s.charge_ah,
-                capacity=s.capacity_ah, design_capacity=s.design_capacity_ah, percentage=self.percentage,
-                power_supply_status=self.power_supply_status, power_supply_health=SUPPLY_HEALTH[s.health],
-                power_supply_technology=TECHNOLOGY_LION, present=True, cell_voltage=cells,
-                cell_temperature=list(s.cell_temperatures_c), location=p.location,
-                serial_number=p.serial_number)
-        return self._battery
-
-    def sim_fields(self):
-        """battery_simulator/BatterySimState's fields besides ``battery`` (and the publish handshake)."""
-        s = self.snapshot
-        return dict(
-            charging_state=self.charging_state,
-            cut_off=s.cut_off.value if s.cut_off is not None else '',
-            cycle_count=s.cycle_count,
-            state_of_health=s.state_of_health,
-            time_remaining_s=s.time_remaining_s if s.time_remaining_s is not None else math.nan,
-            load_power_w=self.load_power_w,
-            active_faults=sorted(self.faults),
-            sensor_dropout=self.sensor_dropout,
-            true_percentage=s.true_percentage,
-            imbalance_warn_v=self.params.imbalance_warn_v,
-            invert_current_sign=bool((self.params.conventions or {}).get('invert_current_sign', False)),
-            percentage_scale=float((self.params.conventions or {}).get('percentage_scale', 1)),
-            gauge_corrections=self.gauge.corrections,
-            gauge_learned=self.gauge.learned,
-            gauge_full_capacity_ah=self.gauge.full_capacity_ah,
-        )
-
-
-#: what the diagnostics and battery_simulator/state say of the gauge: the corrections larger than one point
-#: so far, whether it has learned its capacity, the capacity it believes (Ah), and ``full``: None for a
-#: gauge that calls the truth's Full full, else whether it has seen its own end of charge (Part 9)
-GaugeSummary = namedtuple('GaugeSummary', 'corrections learned full_capacity_ah full')
-
-
-def gauge_summary(model):
-    """The GaugeSummary of ``model``'s gauge (an ideal gauge: none, the pack's capacity)."""
-    gauge = model.gauge
-    if gauge is None:
-        return GaugeSummary(0, False, model.capacity_ah, None)
-    return GaugeSummary(getattr(gauge, 'corrections', 0), getattr(gauge, 'learned', False), gauge.capacity_ah,
-                        getattr(gauge, 'full', None))
-
-
-def reported_status(status, gauge_full):
-    """The status battery_status shows: a gauge that watches its own end of charge (``gauge_full`` not None)
-    says FULL at it, and CHARGING until it even when the charger has already stopped."""
-    if gauge_full is None:
-        return status
-    if status is Status.CHARGING and gauge_full:
-        return Status.FULL
-    if status is Status.FULL and not gauge_full:
-        return Status.CHARGING
-    return status
 
 
 class Update:
@@ -376,8 +281,8 @@ class Battery:
         if logged_value == repr(value) and now - logged_at < INVALID_LOG_PERIOD_S:
             return
         self._invalid_logged = (repr(value), now)
-        self._log.error('%s = %r is invalid: must be 1/true (charge), 0/false (discharge) or unset '
-                        '(hold); keeping %s', self.mode_name, value, self.model.mode.value)
+        self._log.error('%s', refusal(self.mode_name, value, 'must be %s, or unset (hold); keeping %s' % (
+            MODE_ALLOWED, self.model.mode.value)))
 
     # -- goals -----------------------------------------------------------------------
 
@@ -413,6 +318,14 @@ class Battery:
             now = self._clock()
             self._account_motion(now)   # the previous command's energy up to now
             self._motion = (now, speed, turn)
+
+    def take_cmd_vel(self, twist):
+        """A cmd_vel's twist as both front ends take it: on_cmd_vel, a command it refuses logged (at most every
+        INVALID_LOG_PERIOD_S) and dropped: the sender is not told, and the motion in force stays."""
+        try:
+            self.on_cmd_vel(twist.linear.x, twist.angular.z)
+        except BatteryError as error:
+            self._log.error_throttle(INVALID_LOG_PERIOD_S, '%s', error)
 
     def change_contact(self, connected, source):
         """A charger contact report: only a change acts (connected -> charge, disconnected -> discharge).
@@ -525,9 +438,10 @@ class Battery:
     def set_live(self, name, value):
         """Change one live setting, validated like its start-up value; BatteryError (the old value kept)."""
         if name == 'time_scale':
-            if not (is_number(value) and 0 < value <= MAX_TIME_SCALE):
-                raise BatteryError('time_scale = %r is invalid: must be a number in (0, %g]; keeping %g'
-                                   % (value, MAX_TIME_SCALE, self.time_scale))
+            try:
+                check_setting(setting('time_scale'), value)
+            except SettingError as error:
+                raise BatteryError('%s; keeping %g' % (error, self.time_scale)) from None
             with self.lock:
                 self._step_to(self._clock())   # the time so far at the old setting
                 self.time_scale = float(value)
@@ -537,8 +451,7 @@ class Battery:
         if name not in LIVE_PARAMETERS:
             raise BatteryError('%s is not a live setting; live: time_scale, %s' % (name, ', '.join(LIVE_PARAMETERS)))
         if not is_number(value):
-            raise BatteryError('%s = %r is invalid: must be a number; keeping %g' % (
-                name, value, getattr(self.params, name)))
+            raise BatteryError(refusal(name, value, 'must be a number; keeping %g' % getattr(self.params, name)))
         with self.lock:
             try:
                 params = replace(self.params, **{name: float(value)})
@@ -548,38 +461,16 @@ class Battery:
             self.model.params = params
 
 
-def fill_fields(msg, fields):
-    """Set a message's fields from a record's dict (the names are the messages', in ROS 1 and ROS 2)."""
-    for name, value in fields.items():
-        setattr(msg, name, value)
-    return msg
-
-
-def apply_conventions(current_a, percentage, conventions):
-    """(current, percentage) as a driver with ``conventions`` (the config key) publishes them, for testing a
-    consumer's robustness: the opposite current sign (Gazebo's invert_current_sign, firmware that counts
-    charge negative) and 0-100 percentages. None or {} changes nothing. battery_status only: the record
-    carries them (sim_fields) and core/status_rules.py applies them to what goes out."""
-    if not conventions:
-        return current_a, percentage
-    if conventions.get('invert_current_sign', False):
-        current_a = 0.0 - current_a   # 0.0 stays 0.0, not -0.0
-    return current_a, percentage * conventions.get('percentage_scale', 1)
-
-
-def noisy_voltage(voltage_v, noise_v):
-    """A noisy voltage reading: never <= 0 or beyond twice the true value (sigma is bounded by the config)."""
-    return min(max(voltage_v + noise_v, 0.5 * voltage_v), 2.0 * voltage_v)
-
-
-def noisy_current(current_a, noise_a, power_supply_status):
-    """A noisy current reading whose sign never contradicts the status (negative discharging, positive charging)."""
-    noisy = current_a + noise_a
-    if power_supply_status == SupplyStatus.DISCHARGING:
-        return min(noisy, 0.0)
-    if power_supply_status == SupplyStatus.CHARGING:
-        return max(noisy, 0.0)
-    return noisy
+def new_battery(params, settings, charging, mode_name, log, ros_clock=None):
+    """The one way every front end builds a battery (a single node's, a fleet robot's): ``params`` (the
+    config), ``settings`` (core/node_settings.py BATTERY_SETTINGS' initial_percentage, time_scale and
+    max_time_jump; the last two may be missing), ``charging`` (the start-up mode), ``mode_name`` (what the
+    front end calls the mode), ``log`` (a BatteryLog); ``ros_clock()``: the front end's ROS time under
+    use_sim_time, None on wall time (monotonic, scaled by time_scale)."""
+    sim_time = ros_clock is not None
+    return Battery(params, settings['initial_percentage'], charging, clock=ros_clock if sim_time else time.monotonic,
+                   sim_time=sim_time, time_scale=settings.get('time_scale', setting('time_scale').default),
+                   mode_name=mode_name, log=log, max_time_jump=settings.get('max_time_jump', DEFAULT_MAX_TIME_JUMP_S))
 
 
 class _SilentLog:

@@ -6,14 +6,17 @@ own diagnostic_msgs classes.
 """
 import math
 
-from battery_simulator.core.status_codes import HEALTH_TEXT, DiagnosticLevel, SupplyHealth
+from battery_simulator.core.status_codes import EMPTY, HEALTH_TEXT, DiagnosticLevel, SupplyHealth
+
+#: the "Battery" diagnostic status goes out at least this often (wall time: a paused sim clock does not stop it)
+DIAGNOSTIC_PERIOD_S = 0.5
 
 
 def battery_level(state, stale, low, critical):
     """(level, summary) for a BatterySimState: ERROR critical or empty, WARN low, unhealthy, stale or imbalanced."""
     battery = state.battery
-    if state.charging_state == 'Empty':
-        return DiagnosticLevel.ERROR, 'Empty: %s' % (state.cut_off or 'load cut off')
+    if state.charging_state == EMPTY:
+        return DiagnosticLevel.ERROR, '%s: %s' % (EMPTY, state.cut_off or 'load cut off')
     if battery.percentage < critical:
         return DiagnosticLevel.ERROR, 'Critical: %.1f %%' % (100.0 * battery.percentage)
     if stale:

@@ -8,12 +8,17 @@ stops a node with one line: ``parameter NAME = VALUE is invalid: must be ALLOWED
 import re
 from collections import namedtuple
 
-from battery_simulator.core.config_files import default_config_path
-from battery_simulator.core.parameter_rules import is_number
+from battery_simulator.core.config_files import default_config_path, load_yaml, with_gauge_config
+from battery_simulator.core.parameter_rules import ParameterError, is_number, refusal
 
 
 class SettingError(ValueError):
     """A bad start-up value; the message names it, its value and what is allowed."""
+
+
+def is_mode_value(value):
+    """A mode value (ROS 1's MyRobot/BatteryStatus, ROS 2's ``charging``): true / false, or 1 / 0."""
+    return value is not None and not isinstance(value, str) and value in (True, False, 0, 1)
 
 
 Setting = namedtuple('Setting', 'name default check allowed description live')
@@ -33,7 +38,10 @@ def _rate(value):
     return is_number(value) and 0 < value <= 1000
 
 
-#: the battery's own settings (battery_sim_server.py, ROS 2's battery_simulator node, the fleet hosts)
+#: the mode's values, as both front ends say them (ROS 1's MyRobot/BatteryStatus takes 1 / 0)
+MODE_ALLOWED = "true or false (or 1 / 0, as ROS 1's MyRobot/BatteryStatus)"
+
+#: the battery's own settings (ros1/battery_sim.py, ROS 2's battery_simulator node, the fleet hosts)
 BATTERY_SETTINGS = (
     Setting('config', str(default_config_path()), lambda v: isinstance(v, str) and v != '',
             'a path to a YAML file', 'battery config: a preset plus overrides (YAML)', False),
@@ -44,7 +52,7 @@ BATTERY_SETTINGS = (
     Setting('update_rate', 10.0, _rate, 'a number in (0, 1000] Hz', 'model updates per second', False),
     Setting('initial_percentage', 100.0, lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]',
             'charge at start, %', False),
-    Setting('charging', False, lambda v: v in (True, False, 0, 1), 'true or false (or 1 / 0)',
+    Setting('charging', False, is_mode_value, MODE_ALLOWED,
             'initial mode: true charges, false discharges', False),
     Setting('state_file', '', lambda v: isinstance(v, str), 'a file path (or empty)',
             'JSON file the state is saved to and resumed from (empty: none)', False),
@@ -95,16 +103,27 @@ def setting(name):
 def check_setting(setting, value, shown_name=None):
     """``value`` if ``setting`` allows it, else SettingError naming ``shown_name`` (default its name)."""
     if not setting.check(value):
-        raise SettingError('parameter %s = %r is invalid: must be %s'
-                           % (shown_name or setting.name, value, setting.allowed))
+        raise SettingError(refusal(shown_name or setting.name, value, 'must be ' + setting.allowed))
     return value
+
+
+def load_battery_config(path, gauge_config='', shown_name=lambda name: name):
+    """The battery parameters of the YAML file ``path`` with the gauge of ``gauge_config`` (a gauge preset's
+    file) if given; SettingError naming the parameter as ``shown_name('config')`` / ``('gauge_config')``."""
+    try:
+        params = load_yaml(path)
+    except ParameterError as error:
+        raise SettingError(refusal(shown_name('config'), path, error)) from None
+    try:
+        return with_gauge_config(params, gauge_config)
+    except ParameterError as error:
+        raise SettingError('parameter %s is invalid: %s' % (shown_name('gauge_config'), error)) from None
 
 
 def check_publisher_settings(settings, shown_name=lambda name: name, other_name=lambda name: name):
     """The rules between publisher settings: critical at most low. SettingError otherwise (naming the
     bad one as ``shown_name(name)`` and the one it breaks a rule with as ``other_name(name)``)."""
     if settings['critical_percentage'] > settings['low_percentage']:
-        raise SettingError('parameter %s = %r is invalid: must be at most %s (%g)' % (
-            shown_name('critical_percentage'), settings['critical_percentage'], other_name('low_percentage'),
-            settings['low_percentage']))
+        raise SettingError(refusal(shown_name('critical_percentage'), settings['critical_percentage'],
+                                   'must be at most %s (%g)' % (other_name('low_percentage'), settings['low_percentage'])))
     return settings

@@ -108,8 +108,14 @@ _RULES = (
 )
 
 
+def refusal(name, value, reason):
+    """The one text of a refused setting or parameter, at start-up or at run time (both front ends, the config):
+    ``parameter NAME = VALUE is invalid: REASON`` (a run-time refusal adds where it keeps the old value)."""
+    return 'parameter %s = %r is invalid: %s' % (name, value, reason)
+
+
 def _fail(name, value, allowed):
-    raise ParameterError('parameter %s = %r is invalid: must be %s' % (name, value, allowed))
+    raise ParameterError(refusal(name, value, 'must be ' + allowed))
 
 
 def validate(params):

@@ -146,16 +146,35 @@ def fleet_save_period_s(time_scale=1.0):
     return min(FLEET_SAVE_PERIOD_S, max(MIN_FLEET_SAVE_PERIOD_S, FLEET_SAVE_BATTERY_S / time_scale))
 
 
+class SaveThrottle:
+    """When one battery's saved state is written: at the first update, then when its level moved
+    SAVE_EVERY_PERCENT or SAVE_EVERY_S (wall) passed since the last write. The one rule of every keeper (ROS 1's
+    parameter and a fleet robot's, the state file of either front end)."""
+
+    def __init__(self, clock=time.monotonic):
+        self._clock = clock
+        self._saved = (None, -math.inf)   # (level %, time) of the last write
+
+    def due(self, state):
+        saved_level, saved_at = self._saved
+        return saved_level is None or abs(100.0 * state['state_of_charge'] - saved_level) >= SAVE_EVERY_PERCENT \
+            or self._clock() - saved_at >= SAVE_EVERY_S
+
+    def wrote(self, state):
+        self._saved = (100.0 * state['state_of_charge'], self._clock())
+
+
 class StateFileKeeper:
-    """Keeps one battery's state in a state file (the format battery_sim_server.py's ~state_file has):
-    written when the level moved SAVE_EVERY_PERCENT or SAVE_EVERY_S passed, and at shutdown.
-    ``log(text)`` reports a file that cannot be read or written."""
+    """Keeps one battery's state in a state file (the format ROS 1's ~state_file has): written when
+    SaveThrottle says, and at shutdown. ``log(text)`` reports a file that cannot be read or written.
+    ``load()`` and ``where`` as every keeper's (ros1/saved_state.py StateStore's)."""
 
     def __init__(self, path, log=None, clock=time.monotonic):
         self.path = path
+        self.where = path
         self._log = log or (lambda text: None)
         self._clock = clock
-        self._saved = (None, -SAVE_EVERY_S)   # (level, time) of the last write
+        self._throttle = SaveThrottle(clock)
         self._error_at = -WRITE_ERROR_PERIOD_S
 
     def load(self):
@@ -167,17 +186,14 @@ class StateFileKeeper:
             return None
 
     def maybe_save(self, state):
-        """Write ``state`` if its level moved or time passed since the last write."""
-        saved_level, saved_at = self._saved
-        level = 100.0 * state['state_of_charge']
-        if saved_level is None or abs(level - saved_level) >= SAVE_EVERY_PERCENT or \
-                self._clock() - saved_at >= SAVE_EVERY_S:
+        """Write ``state`` if SaveThrottle says it is due."""
+        if self._throttle.due(state):
             self.save_now(state)
 
     def save_now(self, state):
         try:
             write_state_file(self.path, state)
-            self._saved = (100.0 * state['state_of_charge'], self._clock())
+            self._throttle.wrote(state)
         except OSError as error:
             _write_failed(self, error)
 
@@ -229,6 +245,7 @@ def _write_failed(keeper, error):
 class _RobotKeeper:
     def __init__(self, fleet, name):
         self._fleet, self._name = fleet, name
+        self.where = 'the fleet state file %s (%s)' % (fleet.path, name)
 
     def load(self):
         return self._fleet._saved.get(self._name)

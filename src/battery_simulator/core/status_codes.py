@@ -54,13 +54,16 @@ SUPPLY_HEALTH = {
     Health.OVERHEAT: SupplyHealth.OVERHEAT,
     Health.COLD: SupplyHealth.COLD,
 }
+#: the two ends of a charge and a discharge: the charging state a goal ends at, and its result text
+FULL = 'Full'
+EMPTY = 'Empty'
 #: BatterySimState.charging_state and the diagnostics' "Charging State", by model status
 CHARGING_STATE = {
     Status.CHARGING: 'Charging',
     Status.DISCHARGING: 'Discharging',
-    Status.FULL: 'Full',
+    Status.FULL: FULL,
     Status.NOT_CHARGING: 'Not Charging',
-    Status.EMPTY: 'Empty',
+    Status.EMPTY: EMPTY,
 }
 CHARGING_STATES = tuple(CHARGING_STATE.values())
 #: the diagnostics' "Health", by power_supply_health

@@ -16,11 +16,15 @@ import copy
 from collections import namedtuple
 
 from battery_simulator.core import diagnostics
-from battery_simulator.core.battery import apply_conventions
+from battery_simulator.core.battery_record import apply_conventions
 from battery_simulator.core.latest_state import LatestState
 from battery_simulator.core.level_alarm import LevelAlarm
 
 ALARMS = ('low', 'critical')
+#: a burst of send-now changes (a flood of services or contact changes) goes out as at most one battery_status per
+#: battery per this, carrying its last state (ROS 1's ChangeLoop thread; ROS 2's BatteryStatePublisher, a one-shot
+#: timer)
+URGENT_GAP_S = 0.02
 
 #: what taking a state asks of the front end: the alarms whose value changed ((name, active), ...) and
 #: whether to publish now (a service's change, or a change of power_supply_status)

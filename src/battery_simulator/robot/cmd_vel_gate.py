@@ -7,6 +7,8 @@ forward the message type they receive (geometry_msgs Twist or TwistStamped).
 """
 import math
 
+from battery_simulator.core.status_codes import EMPTY
+
 FORWARD, STOP, DROP, BAD = 'forward', 'stop', 'drop', 'bad'
 
 
@@ -24,7 +26,7 @@ class CmdVelGate:
 
     def on_state(self, charging_state):
         """The server's charging_state: 'empty' (stop now), 'not empty' (relay again) on a change, else None."""
-        empty = charging_state == 'Empty'
+        empty = charging_state == EMPTY
         changed, self.empty = empty != self.empty, empty
         if not changed:
             return None

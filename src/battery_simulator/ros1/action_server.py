@@ -38,7 +38,6 @@ act on the model through the same lock.
     battery_status (publish_now, acknowledged on status_sent), so the next battery_status shows the change.
 """
 import threading
-import time
 from contextlib import contextmanager
 
 import actionlib
@@ -46,22 +45,19 @@ import rospy
 from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core import ros_names
-from battery_simulator.core.battery import (DEFAULT_MAX_TIME_JUMP_S, UNREADABLE, Battery,
-                                            BatteryError, Goal, GoalEnd, noisy_current, noisy_voltage)
+from battery_simulator.core.battery import UNREADABLE, Goal, GoalEnd
 from battery_simulator.core.battery_states import Mode
 from battery_simulator.core.resume_rule import resume_battery, say_ready
+from battery_simulator.core.server_log import SHUTDOWN_TEXT, ServerLog
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros1.cached_param import CachedParam
 from battery_simulator.ros1.log import RobotLog
-from battery_simulator.ros1.messages import SimState, twist_of_any
+from battery_simulator.ros1.messages import SimState
 from battery_simulator.ros1.services import BatteryServices
 from battery_simulator.ros1.startup import clock_publishers
+from battery_simulator.ros1.velocity import twist_of_any
 
-FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
-LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
-JUMP_LOG_PERIOD_S = 10.0       # a clock that jumps back and forth (two /clock publishers) warns this often
-__all__ = ['BatterySimServer', 'noisy_current', 'noisy_voltage']
 
 
 class BatterySimServer:
@@ -77,20 +73,17 @@ class BatterySimServer:
     that lock, so actionlib's own locks are always taken first.
     """
 
-    def __init__(self, namespace, node_name, params, time_scale, initial_percentage, charging, store, loop,
-                 status_timer, log=None, max_time_jump=DEFAULT_MAX_TIME_JUMP_S):
-        """One battery whose names live under ``namespace`` ('/', '/robot3/'); ``node_name`` is where its
-        dynamic_reconfigure lives (its node, or '/robot3/BatterySimServer' in a fleet host); ``store``
-        keeps its saved state; ``loop`` (UpdateLoop) steps it; ``status_timer`` publishes its goal status."""
+    def __init__(self, namespace, node_name, battery, store, loop, status_timer, log=None):
+        """``battery`` (core/battery.py, built by ros1/battery_settings.py ros_battery) whose names live under
+        ``namespace`` ('/', '/robot3/'); ``node_name`` is where its dynamic_reconfigure lives (its node, or
+        '/robot3/BatterySimServer' in a fleet host); ``store`` keeps its saved state (ros1/saved_state.py);
+        ``loop`` (UpdateLoop) steps it; ``status_timer`` publishes its goal status."""
         self._ns = namespace
         self._node_name = node_name
         self._log = log or RobotLog()
-        sim_time = bool(rospy.get_param('/use_sim_time', False))
+        self._lines = ServerLog(self._log)
         self._mode_param = CachedParam(namespace + ros_names.MODE_PARAM)
-        self.battery = Battery(params, initial_percentage, charging,
-                               clock=rospy.get_time if sim_time else time.monotonic, sim_time=sim_time,
-                               time_scale=time_scale, mode_name=self._mode_param.name, log=self._log,
-                               max_time_jump=max_time_jump)
+        self.battery = battery
         self._lock = self.battery.lock
         self._loop = loop
         self._status_timer = status_timer
@@ -100,14 +93,13 @@ class BatterySimServer:
         self._sent_update = 0              # the last publish_now update battery_state_pub has sent on
         self._stopping = threading.Event()
         self._goal = None                  # core Goal, worker thread only
-        self._logged = (None, 0.0)         # (whole percent, wall time) of the last progress line
         self._store = store
         self._state_listeners = []         # in-process battery_state_pub logic (a fleet host): called per update
         self._sent_sub = None              # battery_state_pub's acknowledgements, when it is another process
 
         resumed_from = self._resume()
-        if resumed_from is None:
-            self._mode_param.set(1 if charging else 0)
+        if resumed_from is None:   # the start-up mode (the battery's) is the parameter's
+            self._mode_param.set(1 if battery.mode is Mode.CHARGE else 0)
         self.battery.follow_mode_value(self._read_mode_param())
         self._resumed_from = resumed_from
 
@@ -135,8 +127,8 @@ class BatterySimServer:
 
     def _resume(self):
         """Resume a saved state (after a respawn, or from ~state_file); where from, or None."""
-        saved, where = self._store.load()
-        return resume_battery(self.battery, saved, where, self._log)
+        saved = self._store.load()
+        return resume_battery(self.battery, saved, self._store.where, self._log)
 
     def start(self):
         ns = self._ns
@@ -204,7 +196,7 @@ class BatterySimServer:
             self._lock.notify_all()
         state = self.battery.export_state()
         try:
-            self._preempt('server shutting down')
+            self._preempt(SHUTDOWN_TEXT)
         except rospy.ROSException:
             pass   # too late: rospy has closed the action's topics
         self._store.save_now(state)
@@ -218,14 +210,13 @@ class BatterySimServer:
             self._updates += 1
             number, urgent = self._updates, self._updates == self._urgent_update
         if update.time_jump is not None:
-            self._log.warn_throttle(JUMP_LOG_PERIOD_S, '%s', update.time_jump_warning(
-                self.battery.max_time_jump, clock_publishers()))
+            self._lines.time_jump(update, self.battery.max_time_jump, clock_publishers())
         self._publish_state(update.record, publish_now=urgent, update=number)
         with self._lock:
             self._published_update = number
             self._lock.notify_all()
         self._store.maybe_save(update.saved_state)
-        self._log_progress(update.snapshot)
+        self._lines.progress(update.snapshot)
         self._check_goal(update.snapshot)
 
     def _read_mode_param(self):
@@ -252,15 +243,6 @@ class BatterySimServer:
         for listener in self._state_listeners:
             listener(state)
 
-    def _log_progress(self, snapshot):
-        whole = int(snapshot.percentage)
-        logged_percent, logged_at = self._logged
-        now = time.monotonic()
-        if whole != logged_percent and now - logged_at >= 1.0:
-            self._logged = (whole, now)
-            self._log.progress('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
-                               whole, snapshot.voltage_v, snapshot.current_a)
-
     # -- goals (worker thread) ---------------------------------------------------
 
     def _take_goals(self):
@@ -275,7 +257,7 @@ class BatterySimServer:
             self._goal = Goal(goal.charge_state)
             self._set_mode(self._goal.mode, 'goal')
             snapshot = self.battery.snapshot_now()
-            self._log.info_throttle(LOG_PERIOD_S, 'goal: %s from %.1f %%', self._goal.mode.value, snapshot.percentage)
+            self._lines.goal_started(self._goal.mode, snapshot.percentage)
             if self._server.is_preempt_requested():   # cancelled before it was accepted
                 self._preempt('cancel')
             else:
@@ -299,11 +281,10 @@ class BatterySimServer:
 
     def _finish(self, end):
         self._goal = None
-        set_state, log = {GoalEnd.SUCCEEDED: (self._server.set_succeeded, self._log.info_throttle),
-                          GoalEnd.ABORTED: (self._server.set_aborted, self._log.warn_throttle),
-                          GoalEnd.PREEMPTED: (self._server.set_preempted, self._log.info_throttle)}[end.outcome]
+        set_state = {GoalEnd.SUCCEEDED: self._server.set_succeeded, GoalEnd.ABORTED: self._server.set_aborted,
+                     GoalEnd.PREEMPTED: self._server.set_preempted}[end.outcome]
         set_state(battery_simResult(battery_status=end.text), end.text)
-        log(LOG_PERIOD_S, 'goal ended: %s', end.text)
+        self._lines.goal_ended(end)
 
     # -- inputs (subscriber and service threads) ---------------------------------
 
@@ -311,13 +292,10 @@ class BatterySimServer:
         """A cmd_vel of either type (core/velocity.py): its connection says which."""
         twist = twist_of_any(raw)
         if twist is None:
-            self._log.error_throttle(10.0, '%s: type %s ignored (Twist or TwistStamped)', self._ns + ros_names.CMD_VEL,
-                                     raw._connection_header.get('type'))
+            self._lines.input_error('%s: type %s ignored (Twist or TwistStamped)', self._ns + ros_names.CMD_VEL,
+                                    raw._connection_header.get('type'))
             return
-        try:
-            self.battery.on_cmd_vel(twist.linear.x, twist.angular.z)
-        except BatteryError as error:
-            self._log.error_throttle(10.0, '%s', error)
+        self.battery.take_cmd_vel(twist)
 
     def _on_contact(self, msg):
         self.change_contact(bool(msg.data), 'charger contact')
@@ -330,10 +308,7 @@ class BatterySimServer:
                 self._mode_param.set(1 if connected else 0)
                 self._wake_up()
         if changed:
-            # a format per state: a connect and the disconnect after it are both said (a flood of
-            # either is still at most a line a second)
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
-                                    source)
+            self._lines.charger(connected, source)
 
 
 class _LatestStateOnConnect(rospy.SubscribeListener):

@@ -20,6 +20,7 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import BatteryState
 
+from battery_simulator.core import ros_names
 from battery_simulator.msg import battery_simAction, battery_simGoal
 from battery_simulator.cli.progress import ProgressPrinter
 from battery_simulator.cli.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
@@ -36,7 +37,7 @@ class ProgressView:
     def __init__(self, stream):
         self._lock = threading.Lock()
         self._printer = ProgressPrinter(stream)
-        self._sub = rospy.Subscriber('battery_status', BatteryState, self._on_state, queue_size=1)
+        self._sub = rospy.Subscriber(ros_names.BATTERY_STATUS, BatteryState, self._on_state, queue_size=1)
 
     def _on_state(self, msg):
         with self._lock:

@@ -29,9 +29,9 @@ class CmdVelGate:
     def __init__(self):
         self._lock = threading.Lock()   # guards _gate and the commands and stops published
         self._gate = rule.CmdVelGate()
-        self._pub = TwistPublisher('cmd_vel_out', queue_size=10, like_topics=('cmd_vel_in',))
+        self._pub = TwistPublisher(ros_names.CMD_VEL_OUT, queue_size=10, like_topics=(ros_names.CMD_VEL_IN,))
         self._state_sub = rospy.Subscriber(ros_names.STATE_TOPIC, BatterySimState, self._on_state, queue_size=10)
-        self._cmd_sub = TwistSubscriber('cmd_vel_in', self._on_cmd_vel, queue_size=10)
+        self._cmd_sub = TwistSubscriber(ros_names.CMD_VEL_IN, self._on_cmd_vel, queue_size=10)
 
     def _on_state(self, state):
         with self._lock:

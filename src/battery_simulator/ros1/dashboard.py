@@ -41,8 +41,8 @@ from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SE
                                                 start_pushing)
 from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, NODE_NAME, SERVICE_WAIT_S, battery_values,
                                                    call_line, finish_settings, fleet_host, listen_problem,
-                                                   ready_line, request_fields, service_name, sim_values,
-                                                   subscriptions)
+                                                   ready_line, request_fields, service_name, subscriptions,
+                                                   take_battery, take_level, take_sim_state)
 from battery_simulator.web.topic_discovery import namespace_of
 
 SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
@@ -68,8 +68,9 @@ class BatteryDashboard:
         self.scan_period = scan_period
         self._subscribers = {}    # (kind, topic) -> rospy.Subscriber
         self._stop = threading.Event()
-        self._kinds = {'battery': (BatteryState, self._on_battery), 'low': (Bool, self._on_level),
-                       'critical': (Bool, self._on_level), 'state': (BatterySimState, self._on_sim_state),
+        self._kinds = {'battery': (BatteryState, self._into_hub(take_battery)),
+                       'low': (Bool, self._into_hub(take_level)), 'critical': (Bool, self._into_hub(take_level)),
+                       'state': (BatterySimState, self._into_hub(take_sim_state)),
                        'fleet': (BatteryFleetState, self._on_fleet)}
 
     # -- discovery
@@ -100,20 +101,9 @@ class BatteryDashboard:
         self._stop.set()
 
     # -- callbacks (rospy's threads)
-    def _on_battery(self, msg, battery):
-        values = battery_values(msg)
-        with self.hub.lock:
-            self.hub.model.on_battery(battery, values, time.time())
-
-    def _on_level(self, msg, battery_and_kind):
-        battery, kind = battery_and_kind
-        with self.hub.lock:
-            self.hub.model.on_level_topic(battery, kind, msg.data, time.time())
-
-    def _on_sim_state(self, msg, battery):
-        sim = sim_values(msg)
-        with self.hub.lock:
-            self.hub.model.on_sim_state(battery, sim, time.time())
+    def _into_hub(self, take):
+        """A subscription's callback: ``take`` (web/dashboard_rules.py) puts the message into the hub's model."""
+        return lambda msg, argument: take(self.hub, msg, argument)
 
     def _on_fleet(self, msg, fleet_and_namespace):
         """Every host publishes its robots on the one topic (older hosts on their own ``<host>/states``):

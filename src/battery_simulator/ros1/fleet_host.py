@@ -35,8 +35,8 @@ import time
 
 import rospy
 
-from battery_simulator.ros1 import battery_sim_server, state_publisher
 from battery_simulator.ros1.action_server import BatterySimServer
+from battery_simulator.ros1.battery_settings import read_battery_settings, read_publisher_settings, ros_battery
 from battery_simulator.ros1.log import RobotLog
 from battery_simulator.ros1.saved_state import FleetStore
 from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate, repeat_at_rate
@@ -62,8 +62,8 @@ CONNECTION_CHECK_PERIOD_S = 5.0
 
 def read_settings():
     """The host's settings and its robots, checked; raises StartupError (one line naming robot and key)."""
-    server = battery_sim_server.read_settings()
-    publisher = state_publisher.read_settings()
+    server = read_battery_settings()
+    publisher = read_publisher_settings()
     staggered = not rospy.has_param('~initial_percentage')
     try:
         if rospy.has_param('~fleet_size'):   # fleet.launch: this host's share of n robots among hosts
@@ -136,10 +136,10 @@ class FleetHost:
             namespace = rospy.resolve_name(robot.name) + '/'
             log = RobotLog(robot.name + ': ', progress=False)
             battery = BatterySimServer(
-                namespace, namespace + 'BatterySimServer', robot_params(configs[robot.config], robot.name),
-                server['time_scale'],
-                robot.initial_percentage, robot.charging, self.store.robot(robot.name), self.loop, status_timer, log,
-                server['max_time_jump'])
+                namespace, namespace + 'BatterySimServer',
+                ros_battery(robot_params(configs[robot.config], robot.name),
+                            dict(server, initial_percentage=robot.initial_percentage), robot.charging, namespace, log),
+                self.store.robot(robot.name), self.loop, status_timer, log)
             status = BatteryStatePublisher(namespace, namespace + 'battery_state_pub', changes=self.changes,
                                            log=log, **publisher)
             battery.add_state_listener(status.on_state)

@@ -1,13 +1,9 @@
 """A battery's record (core/battery.py) -> sensor_msgs/BatteryState and BatterySimState (no rospy:
 message classes only)."""
-from geometry_msgs.msg import Twist, TwistStamped
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.core.battery import BatteryRecord, fill_fields as fill
-from battery_simulator.core.velocity import TWIST, TWIST_STAMPED, twist_of
+from battery_simulator.core.battery_record import BatteryRecord, fill_fields as fill
 from battery_simulator.msg import BatterySimState
-
-VELOCITY_CLASSES = {TWIST: Twist, TWIST_STAMPED: TwistStamped}
 
 
 def battery_state_of(record, stamp=None, frame_id=''):
@@ -75,15 +71,3 @@ class ReceivedState:
     def message(self):
         return self._message
 
-
-def velocity_of_any(raw):
-    """The Twist or TwistStamped message of a velocity command received as rospy.AnyMsg (its connection's
-    type says which); None for another type."""
-    message_class = VELOCITY_CLASSES.get(raw._connection_header.get('type'))
-    return None if message_class is None else message_class().deserialize(raw._buff)
-
-
-def twist_of_any(raw):
-    """The Twist of a cmd_vel received as rospy.AnyMsg (core/velocity.py); None for another type."""
-    msg = velocity_of_any(raw)
-    return None if msg is None else twist_of(msg)

@@ -62,7 +62,7 @@ class PatrolAndDock:
                                    rest_on_dock)
         self._client = actionlib.SimpleActionClient(ros_names.ACTION, battery_simAction)
         self._cmd_pub = rospy.Publisher(ros_names.CMD_VEL, Twist, queue_size=1)
-        self._phase_pub = rospy.Publisher('patrol_and_dock/phase', String, queue_size=1, latch=True)
+        self._phase_pub = rospy.Publisher(ros_names.PHASE, String, queue_size=1, latch=True)
         self._subs = [
             rospy.Subscriber(ros_names.ODOM, Odometry, self._on_odom, queue_size=1),
             rospy.Subscriber(ros_names.BATTERY_LOW, Bool, self._on_low, queue_size=1),

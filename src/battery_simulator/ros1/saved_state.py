@@ -16,8 +16,8 @@ import time
 import rospy
 
 # the saving rule's figures are the ROS-free state file's (ROS 2 keeps its state with them too)
-from battery_simulator.core.state_file import (SAVE_EVERY_PERCENT, SAVE_EVERY_S, SaveCadence, fleet_save_period_s,
-                                               read_state_file, write_state_file)
+from battery_simulator.core.state_file import (SaveCadence, SaveThrottle, fleet_save_period_s, read_state_file,
+                                               write_state_file)
 
 FILE_EVERY_S = 10.0        # the state file is written at most this often, and at shutdown
 
@@ -28,43 +28,45 @@ class StateStore:
     def __init__(self, param_name, state_file=''):
         self.param_name = param_name
         self.state_file = state_file
-        self._saved = (None, 0.0)      # (percentage, wall time) of the last parameter write
+        self.where = None               # where load() found the state (for the resumed line)
+        self._throttle = SaveThrottle()  # the parameter's writes
         self._file_saved_at = 0.0
 
     def load(self):
-        """(saved state, where from) or (None, None): the parameter first, then the file."""
+        """The saved state or None (as every keeper's load): the parameter first, then the file; ``where``
+        then says which."""
         saved = rospy.get_param(self.param_name, None)
         if saved is not None:
-            return saved, 'the parameter server (%s)' % self.param_name
+            self.where = 'the parameter server (%s)' % self.param_name
+            return saved
         try:
             saved = read_state_file(self.state_file)
         except (OSError, ValueError) as error:   # checked at start (startup.check_state_file_param): it changed
             rospy.logerr('cannot read state file %s (%s): starting fresh, and the file is never written over',
                          self.state_file, error)
             self.state_file = ''
-            return None, None
-        return (saved, self.state_file) if saved is not None else (None, None)
+            return None
+        self.where = self.state_file if saved is not None else None
+        return saved
 
     def maybe_save(self, state):
-        """Save if the level moved or time passed since the last save (called every update)."""
-        percentage, saved_at = self._saved
+        """Save if SaveThrottle says so (called every update); the file at most every FILE_EVERY_S."""
+        if self._throttle.due(state):
+            self._save_param(state)
         now = time.monotonic()
-        level = 100.0 * state['state_of_charge']
-        if percentage is None or abs(level - percentage) >= SAVE_EVERY_PERCENT or now - saved_at >= SAVE_EVERY_S:
-            self._save_param(state, level, now)
         if self.state_file and now - self._file_saved_at >= FILE_EVERY_S:
             self._save_file(state, now)
 
     def save_now(self, state):
         """At shutdown: both places, whatever the throttles say."""
-        self._save_param(state, 100.0 * state['state_of_charge'], time.monotonic())
+        self._save_param(state)
         if self.state_file:
             self._save_file(state, time.monotonic())
 
-    def _save_param(self, state, level, now):
+    def _save_param(self, state):
         try:
             rospy.set_param(self.param_name, state)
-            self._saved = (level, now)
+            self._throttle.wrote(state)
         except (ConnectionError, OSError) as error:  # master gone: try again next update
             rospy.logwarn_throttle(10.0, 'cannot save the battery state: %s', error)
 
@@ -125,21 +127,16 @@ class FleetStore:
 class _RobotStore:
     def __init__(self, fleet, name):
         self._fleet, self._name = fleet, name
-        self._saved = (None, 0.0)
+        self._throttle = SaveThrottle()
+        self.where = 'the parameter server (%s/%s)' % (fleet.param_name, name)
 
     def load(self):
-        saved = self._fleet._load(self._name)
-        if saved is None:
-            return None, None
-        return saved, 'the parameter server (%s/%s)' % (self._fleet.param_name, self._name)
+        return self._fleet._load(self._name)
 
     def maybe_save(self, state):
-        percentage, saved_at = self._saved
-        now = time.monotonic()
-        level = 100.0 * state['state_of_charge']
-        if percentage is None or abs(level - percentage) >= SAVE_EVERY_PERCENT or now - saved_at >= SAVE_EVERY_S:
+        if self._throttle.due(state):
             self._fleet._keep(self._name, state)
-            self._saved = (level, now)
+            self._throttle.wrote(state)
 
     def save_now(self, state):
         self._fleet._keep(self._name, state)

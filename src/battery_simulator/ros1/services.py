@@ -20,6 +20,7 @@ from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 from battery_simulator.cfg import BatterySimConfig
 from battery_simulator.core import ros_names
 from battery_simulator.core.battery import MOTION_LOAD, BatteryError
+from battery_simulator.core.server_log import charger_reply
 from battery_simulator.ros1 import prediction_service
 from battery_simulator.srv import InjectFault, InjectFaultResponse, SetLoad, SetLoadResponse, SetState, SetStateResponse
 
@@ -52,7 +53,7 @@ class BatteryServices:
     def _set_charging(self, request):
         with self._server.service_change():
             self._server.change_contact(bool(request.data), 'set_charging')
-        return SetBoolResponse(success=True, message='charger %s' % ('connected' if request.data else 'disconnected'))
+        return SetBoolResponse(success=True, message=charger_reply(bool(request.data)))
 
     def _service(self, response_class, change):
         """Run a service's ``change()`` (its reply's text) as a published change; a refusal replies
@@ -99,6 +100,7 @@ class BatteryServices:
                         self._log.error('dynamic_reconfigure: %s', error)
             config.update(self.battery.live_values())
         return config
+
 
 class _LiveSettings(ReconfigureServer):
     """dynamic_reconfigure's server, starting from the values in force rather than from the parameter

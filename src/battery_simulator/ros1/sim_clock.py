@@ -31,6 +31,7 @@ import rosgraph
 import rospy
 from rosgraph_msgs.msg import Clock
 
+from battery_simulator.core import ros_names
 from battery_simulator.robot import clock as rule
 from battery_simulator.robot.clock import missing_publishers
 from battery_simulator.ros1.startup import StartupError, exit_on_startup_error, init_node, read_private_settings
@@ -45,7 +46,7 @@ class SimClock:
         self._speed, self._start, self._tick_hz = speed, start, tick_hz
         self._wait_for = [rospy.resolve_name(topic) for topic in wait_for]
         self._wait_timeout = wait_timeout
-        self._pub = rospy.Publisher('/clock', Clock, queue_size=10)
+        self._pub = rospy.Publisher(ros_names.CLOCK, Clock, queue_size=10)
 
     def _hold(self):
         """Publish ``~start`` until every ``~wait_for`` topic has a publisher (bounded, wall time)."""

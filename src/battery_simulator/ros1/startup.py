@@ -8,7 +8,8 @@ import time
 import rosgraph
 import rospy
 
-from battery_simulator.core.parameter_rules import is_number, number_from_text
+from battery_simulator.core import ros_names
+from battery_simulator.core.parameter_rules import is_number, number_from_text, refusal
 from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
 
@@ -28,8 +29,7 @@ def checked_param(name, default, check, allowed):
     if is_number(default):
         value = number_from_text(value)
     if not check(value):
-        raise StartupError('parameter %s = %r is invalid: must be %s'
-                           % (rospy.resolve_name(name), value, allowed))
+        raise StartupError(refusal(rospy.resolve_name(name), value, 'must be ' + allowed))
     return value
 
 
@@ -47,8 +47,7 @@ def check_state_file_param(path, name='~state_file', fleet=False):
         try:
             check_state_file(path, fleet, holder=rospy.get_name())
         except StateFileError as error:
-            raise StartupError('parameter %s = %r is invalid: %s' % (rospy.resolve_name(name), path, error)) \
-                from None
+            raise StartupError(refusal(rospy.resolve_name(name), path, error)) from None
 
 
 _clock_publishers = (-float('inf'), [])   # (monotonic time, names) of the last lookup
@@ -62,14 +61,14 @@ def clock_publishers(period_s=10.0):
     if time.monotonic() - looked_up_at >= period_s:
         try:
             publishers, _, _ = rosgraph.Master(rospy.get_name()).getSystemState()
-            names = next((nodes for topic, nodes in publishers if topic == '/clock'), [])
+            names = next((nodes for topic, nodes in publishers if topic == ros_names.CLOCK), [])
         except (OSError, rosgraph.MasterException):
             names = []
         _clock_publishers = (time.monotonic(), names)
     return names
 
 
-def batteries_served_elsewhere(namespaces, service='battery_simulator/set_state'):
+def batteries_served_elsewhere(namespaces, service=ros_names.SET_STATE):
     """{namespace: node} for each of ``namespaces`` ('/robot1/') whose battery another node already serves
     (its ``service`` is registered at the master by a node other than this one: a respawned node has
     this node's name and takes its place). One master call, at start-up."""

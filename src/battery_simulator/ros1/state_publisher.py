@@ -1,4 +1,5 @@
-"""The BatteryState publisher node (battery_state_pub).
+"""battery_state_pub's role for one battery on ROS 1 (ros2/state_publisher.py's twin; its main:
+battery_state_pub.py).
 
 It runs no model: it republishes the server's latest state on
 ``battery_status`` at ``~rate`` Hz, stamped with the current ROS time, so the
@@ -21,7 +22,7 @@ server is back.
     (default battery_state, what opennav_docking reads; empty: battery_status only)
 
 :Subscribes:
-  - ``battery_simulator/state`` (battery_simulator/BatterySimState): from battery_sim_server.py
+  - ``battery_simulator/state`` (battery_simulator/BatterySimState): from the server (ros1/action_server.py)
 :Publishes:
   - ``battery_status`` (sensor_msgs/BatteryState), and the same on ``battery_state`` (``~battery_state_topic``)
   - ``battery_low``, ``battery_critical`` (std_msgs/Bool, latched)
@@ -36,23 +37,11 @@ from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool, UInt64
 
 from battery_simulator.core import ros_names
-from battery_simulator.core.node_settings import PUBLISHER_SETTINGS, SettingError, check_publisher_settings
 from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros1.log import RobotLog
 from battery_simulator.ros1.messages import ReceivedState
-from battery_simulator.ros1.startup import StartupError, init_node, read_private_settings, signals_held
-from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop
-
-
-def read_settings():
-    """All start-up parameters (core/node_settings.py PUBLISHER_SETTINGS), checked; raises StartupError."""
-    try:
-        return check_publisher_settings(read_private_settings(PUBLISHER_SETTINGS),
-                                        lambda name: rospy.resolve_name('~' + name), lambda name: '~' + name)
-    except SettingError as error:
-        raise StartupError(str(error)) from None
 
 
 class BatteryStatePublisher:
@@ -155,13 +144,3 @@ def publish_at_rate(publishers, rate_hz):
             publisher.publish_once()
     repeat_at_rate(rate_hz, publish_all)
 
-
-def main():
-    with signals_held():
-        settings = init_node('battery_state_pub', read_settings)
-        changes = ChangeLoop()
-        publisher = BatteryStatePublisher(rospy.get_namespace(), rospy.get_name(), changes=changes, **settings)
-        publisher.follow_topic()
-        changes.start()
-        DiagnosticsLoop([publisher]).start()
-    publish_at_rate([publisher], publisher.rate)

@@ -6,7 +6,7 @@ import rospy
 from geometry_msgs.msg import Twist, TwistStamped
 
 from battery_simulator.core.velocity import twist_of
-from battery_simulator.ros1.messages import VELOCITY_CLASSES as TYPES, velocity_of_any
+from battery_simulator.ros1.velocity import MESSAGE_CLASSES as TYPES, velocity_of_any
 
 
 class TwistSubscriber:

@@ -17,10 +17,11 @@ import time
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
 
+from battery_simulator.core import ros_names
+from battery_simulator.core.diagnostics import DIAGNOSTIC_PERIOD_S
+from battery_simulator.core.status_rules import URGENT_GAP_S
 from battery_simulator.ros1.startup import ending_the_node_on_error
 
-URGENT_GAP_S = 0.02          # at most one immediate battery_status per battery per this
-DIAGNOSTIC_PERIOD_S = 0.5    # diagnostics at least this often (wall time: a paused sim clock does not stop them)
 STATUS_PERIOD_S = 0.2        # actionlib's default status_frequency, 5 Hz
 
 
@@ -181,7 +182,7 @@ class DiagnosticsLoop:
 
     def __init__(self, publishers):
         self._publishers = publishers
-        self._pub = rospy.Publisher('/diagnostics', DiagnosticArray, queue_size=10)
+        self._pub = rospy.Publisher(ros_names.DIAGNOSTICS, DiagnosticArray, queue_size=10)
         self._thread = threading.Thread(target=self._run, name='diagnostics', daemon=True)
 
     def start(self):

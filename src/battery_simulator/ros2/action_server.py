@@ -19,18 +19,17 @@ from std_msgs.msg import Bool
 
 from battery_simulator.action import BatterySim
 from battery_simulator.core import ros_names
-from battery_simulator.core.battery import BatteryError, Goal, GoalEnd, parse_mode
+from battery_simulator.core.battery import BatteryError, Goal, GoalEnd
 from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.node_settings import SettingError, check_setting, setting
+from battery_simulator.core.server_log import SHUTDOWN_TEXT, ServerLog
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros2.messages import SimState
 from battery_simulator.ros2.qos import LATCHED_QOS
 from battery_simulator.ros2.services import BatteryServices
 from battery_simulator.ros2.velocity import VelocityInput
 
-MODE_PARAMETER = 'charging'
-LOG_PERIOD_S = 1.0
-JUMP_LOG_PERIOD_S = 10.0   # a clock that jumps back and forth (two /clock publishers) warns this often
-SHUTDOWN_TEXT = 'server shutting down'
+MODE_PARAMETER = ros_names.CHARGING_PARAM
 
 
 class _ActiveGoal:
@@ -48,6 +47,7 @@ class BatterySimServer:
         ``mode_parameter``: the node's ``charging`` follows the mode (False on a shared node, whose parameters
         are the host's); ``graph_types``: a GraphTypes shared by the fronts of one node (velocity.py)."""
         self.node, self.battery, self._log = node, battery, log
+        self._lines = ServerLog(log)
         self._mode_parameter = mode_parameter
         self._status = status
         self._store = store
@@ -77,8 +77,9 @@ class BatterySimServer:
             return SetParametersResult(successful=True)
         modes = [p.value for p in parameters if p.name == MODE_PARAMETER]
         for value in modes:
-            if parse_mode(value) is None or value is None:
-                return SetParametersResult(successful=False, reason=mode_refusal(value))
+            reason = mode_refusal(value)
+            if reason is not None:
+                return SetParametersResult(successful=False, reason=reason)
         live = [(p.name, p.value) for p in parameters if p.name in self.battery.live_values()]
         reason = self._set_live_all(live)
         if reason is not None:
@@ -118,9 +119,8 @@ class BatterySimServer:
         """Step the battery to now, publish its state, feed and end the active goal."""
         update = self.battery.update()
         if update.time_jump is not None:
-            publishers = [info.node_name for info in self.node.get_publishers_info_by_topic('/clock')]
-            self._log.warn_throttle(JUMP_LOG_PERIOD_S, '%s', update.time_jump_warning(
-                self.battery.max_time_jump, publishers))
+            publishers = [info.node_name for info in self.node.get_publishers_info_by_topic(ros_names.CLOCK)]
+            self._lines.time_jump(update, self.battery.max_time_jump, publishers)
         state = SimState(update.record)
         if self._state_pub.get_subscription_count() > 0:
             self._state_pub.publish(state.message())
@@ -128,6 +128,7 @@ class BatterySimServer:
             self._status.on_state(state, publish_now)
         if self._store is not None:
             self._store.maybe_save(update.saved_state)
+        self._lines.progress(update.snapshot)
         self._check_goal(update.snapshot)
         taken = self._cmd_vel.follow_publishers()
         if taken is not None:
@@ -150,7 +151,7 @@ class BatterySimServer:
         """Every goal is accepted, but once the server is shutting down (its state saved, its last results on
         their way): one accepted then would never run."""
         if self._finishing:
-            self._log.warn_throttle(LOG_PERIOD_S, 'goal rejected: %s', SHUTDOWN_TEXT)
+            self._lines.goal_rejected(SHUTDOWN_TEXT)
             return GoalResponse.REJECT
         return GoalResponse.ACCEPT
 
@@ -167,7 +168,7 @@ class BatterySimServer:
         self.battery.set_mode(goal.mode, 'goal')
         self._write_mode(goal.mode)
         snapshot = self.battery.snapshot_now()
-        self._log.info_throttle(LOG_PERIOD_S, 'goal: %s from %.1f %%', goal.mode.value, snapshot.percentage)
+        self._lines.goal_started(goal.mode, snapshot.percentage)
         self.update(publish_now=True)   # a goal that starts where it would end succeeds at once
 
     async def _execute(self, handle):
@@ -191,7 +192,7 @@ class BatterySimServer:
             handle.canceled()
         else:
             handle.abort()
-        self._log.info_throttle(LOG_PERIOD_S, 'goal ended: %s', end.text)
+        self._lines.goal_ended(end)
         return BatterySim.Result(battery_status=end.text)
 
     def _check_goal(self, snapshot):
@@ -209,10 +210,7 @@ class BatterySimServer:
     # -- inputs ----------------------------------------------------------------------------------
 
     def _on_cmd_vel(self, twist):
-        try:
-            self.battery.on_cmd_vel(twist.linear.x, twist.angular.z)
-        except BatteryError as error:
-            self._log.error_throttle(10.0, '%s', error)
+        self.battery.take_cmd_vel(twist)
 
     def _on_contact(self, msg):
         self.change_contact(bool(msg.data), 'charger contact')
@@ -220,13 +218,14 @@ class BatterySimServer:
     def change_contact(self, connected, source):
         if self.battery.change_contact(connected, source):
             self._write_mode(self.battery.mode)
-            # a format per state: a connect and the disconnect after it are both said (a flood of
-            # either is still at most a line a second)
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
-                                    source)
+            self._lines.charger(connected, source)
             self.update(publish_now=True)
 
 
-def mode_refusal(value):
-    """Why a ``charging`` value is refused (one line naming it)."""
-    return 'charging = %r is invalid: must be true or false (or 1 / 0, as ROS 1\'s MyRobot/BatteryStatus)' % (value,)
+def mode_refusal(value, shown_name=MODE_PARAMETER):
+    """Why a ``charging`` value is refused (core/node_settings.py's one line naming it), or None."""
+    try:
+        check_setting(setting('charging'), value, shown_name)
+    except SettingError as error:
+        return str(error)
+    return None

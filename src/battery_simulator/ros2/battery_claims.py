@@ -10,6 +10,7 @@ import time
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
+from battery_simulator.core import ros_names
 from battery_simulator.ros2 import local_claims
 from battery_simulator.ros2.startup import StartupError
 
@@ -17,7 +18,7 @@ from battery_simulator.ros2.startup import StartupError
 # -- one battery per name (Part 3's rule on ROS 2) -----------------------------------------------------
 
 #: every process that runs batteries says which names (namespaces) it serves, since when, on this topic
-CLAIMS_TOPIC = '/battery_claims'
+CLAIMS_TOPIC = ros_names.BATTERY_CLAIMS
 CLAIMS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: how long a process listens for the claims of others before it runs its batteries
@@ -119,3 +120,59 @@ class BatteryClaim:
             executor.spin_once(timeout_sec=0.05)
         if self.lost is not None:
             raise StartupError(self.lost)
+
+
+# -- who serves this namespace's battery (a lone battery_state_pub asks, the tutorial's node) -------------
+
+def battery_node_present(node):
+    """Whether a node named battery_simulator runs in this node's namespace."""
+    namespace = node.get_namespace()
+    return any(name == ros_names.BATTERY_NODE and ns == namespace for name, ns in node.get_node_names_and_namespaces())
+
+
+def other_state_pub(node):
+    """Whether another node named as this one (battery_state_pub) runs in this node's namespace (battery_sim's)."""
+    namespace, name = node.get_namespace(), node.get_name()
+    return sum(1 for n, ns in node.get_node_names_and_namespaces() if n == name and ns == namespace) > 1
+
+
+def status_published_by_battery(node, executor, timeout_s=1.0):
+    """Whether this namespace's battery_simulator node publishes battery_status itself (a fleet host's
+    robot does; battery_sim's battery leaves it to its battery_state_pub), looked for up to ``timeout_s``."""
+    topic = node.resolve_topic_name(ros_names.BATTERY_STATUS)
+    namespace = node.get_namespace()
+    deadline = time.monotonic() + timeout_s
+    while True:
+        if any(info.node_name == ros_names.BATTERY_NODE and info.node_namespace == namespace
+               for info in node.get_publishers_info_by_topic(topic)):
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        executor.spin_once(timeout_sec=0.1)
+
+
+def wait_for_battery_node(node, executor, wait_s):
+    """Whether a battery_simulator node shows in this node's namespace within ``wait_s``."""
+    deadline = time.monotonic() + wait_s
+    while time.monotonic() < deadline:
+        if battery_node_present(node):
+            return True
+        executor.spin_once(timeout_sec=0.1)
+    return battery_node_present(node)
+
+
+def check_no_second_publisher(node, executor):
+    """StartupError when this namespace's battery_status already has a publisher (battery_sim's
+    battery_state_pub, or a fleet host's robot): a second one would publish every battery_status twice."""
+    if other_state_pub(node):
+        raise StartupError('%s already runs beside the battery of %s (battery_sim runs both): a second '
+                           'one would publish every battery_status twice; battery_state_pub alone is '
+                           'for a namespace without battery_sim' % (
+                               node.get_fully_qualified_name(), node.get_namespace()))
+    if status_published_by_battery(node, executor):
+        host = claimed_by(node, executor, node.get_namespace()) or '%s/%s' % (
+            node.get_namespace().rstrip('/'), ros_names.BATTERY_NODE)
+        raise StartupError('battery_status of %s is already published by %s (its battery and '
+                           'battery_status are one node): a second battery_state_pub would publish '
+                           'it twice; battery_state_pub alone is for a namespace without one' % (
+                               node.get_namespace(), host))

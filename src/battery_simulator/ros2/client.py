@@ -12,6 +12,7 @@ import signal
 import sys
 import time
 
+from battery_simulator.core import ros_names
 from battery_simulator.cli.client_cli import goal_request
 
 STEP_S = 0.1
@@ -52,7 +53,8 @@ def main(argv=None):
     def on_feedback(feedback):
         heard[0] = time.monotonic()
         printer.on_feedback(feedback.feedback.battery_percentage)
-    node.create_subscription(BatteryState, 'battery_status', lambda msg: setattr(printer, 'state', msg), STATUS_QOS)
+    node.create_subscription(BatteryState, ros_names.BATTERY_STATUS, lambda msg: setattr(printer, 'state', msg),
+                             STATUS_QOS)
     charge = args.charge
     goal_handle = None
     code = 1

@@ -10,12 +10,12 @@ from battery_simulator.core import ros_names
 from battery_simulator.msg import BatterySimState
 from battery_simulator.robot import cmd_vel_gate as rule
 from battery_simulator.ros2.qos import LATCHED_QOS
-from battery_simulator.ros2.robot_node import run_node
+from battery_simulator.ros2.startup import run_node
 from battery_simulator.ros2.twist import TwistPublisher, TwistSubscriber
 
 
 class CmdVelGate:
-    def __init__(self, node, cmd_vel_in='cmd_vel_in', cmd_vel_out='cmd_vel_out'):
+    def __init__(self, node, cmd_vel_in=ros_names.CMD_VEL_IN, cmd_vel_out=ros_names.CMD_VEL_OUT):
         self._node = node
         self._gate = rule.CmdVelGate()
         self._pub = TwistPublisher(node, cmd_vel_out)

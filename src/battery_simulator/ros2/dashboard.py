@@ -60,7 +60,8 @@ from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SE
 from battery_simulator.web.dashboard_rules import (DASHBOARD_SETTINGS, LEVEL_KINDS, NODE_NAME, SERVICE_WAIT_S,
                                                    battery_values, call_line, finish_settings, fleet_host,
                                                    listen_problem, ready_line, request_fields, ros1_type_name,
-                                                   service_name, sim_values, subscriptions)
+                                                   service_name, subscriptions, take_battery, take_level,
+                                                   take_sim_state)
 from battery_simulator.web.topic_discovery import FLEET_STATE_TYPE, fleet_battery_topic, namespace_of
 
 SERVICE_TYPES = {'set_state': SetState, 'set_charging': SetBool, 'inject_fault': InjectFault}
@@ -100,8 +101,9 @@ class BatteryDashboard(Node):
         self.settings = finish_settings(declare_settings(self, DASHBOARD_SETTINGS))
         self.hub = None
         self._subscribed = {}   # (kind, topic) -> Subscription
-        self._kinds = {'battery': (BatteryState, self._on_battery), 'low': (Bool, self._on_level),
-                       'critical': (Bool, self._on_level), 'state': (BatterySimState, self._on_sim_state),
+        self._kinds = {'battery': (BatteryState, self._into_hub(take_battery)),
+                       'low': (Bool, self._into_hub(take_level)), 'critical': (Bool, self._into_hub(take_level)),
+                       'state': (BatterySimState, self._into_hub(take_sim_state)),
                        'fleet': (BatteryFleetState, self._on_fleet)}
         self._fleet_named = {}     # battery topic -> monotonic time a fleet message last named it
         self._hosts = {}           # publisher GID -> node name (fleet hosts)
@@ -194,20 +196,9 @@ class BatteryDashboard(Node):
             self._backlog_timer = None
 
     # -- callbacks (the executor's thread)
-    def _on_battery(self, msg, argument):
-        values = battery_values(msg)
-        with self.hub.lock:
-            self.hub.model.on_battery(argument, values, time.time())
-
-    def _on_level(self, msg, argument):
-        battery, kind = argument
-        with self.hub.lock:
-            self.hub.model.on_level_topic(battery, kind, msg.data, time.time())
-
-    def _on_sim_state(self, msg, argument):
-        sim = sim_values(msg)
-        with self.hub.lock:
-            self.hub.model.on_sim_state(argument, sim, time.time())
+    def _into_hub(self, take):
+        """A subscription's callback: ``take`` (web/dashboard_rules.py) puts the message into the hub's model."""
+        return lambda msg, argument: take(self.hub, msg, argument)
 
     def _on_fleet(self, msg, info, argument):
         """Every host publishes its robots on the one topic: merged by robot name, each robot's host is the

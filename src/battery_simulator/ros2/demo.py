@@ -9,10 +9,11 @@ node on ``use_sim_time``. The robot patrols, heads for the dock when battery_low
 backs off and patrols again; each phase is logged with the level and published on
 ``patrol_and_dock/phase``.
 
-:Parameters of battery_demo (demo.launch's arguments):
+:Parameters of battery_demo (demo.launch's arguments; robot/demo_settings.py SETTINGS):
   - ``speed`` (0 < s <= 10000, default 60): ROS time runs this many times as fast as wall time
-  - ``tick_hz`` (Hz, default 100): clock ticks per wall second (0.6 s of ROS time a tick at speed 60,
-    2.4 s at 240: every tick wakes every node of this process, and rclpy's executor costs ~1 ms a wake-up)
+  - ``tick_hz`` (Hz, default 250, as demo.launch's): clock ticks per wall second (0.24 s of ROS time a tick at
+    speed 60, 0.96 s at 240: every tick wakes every node of this process, and rclpy's executor costs ~1 ms a
+    wake-up)
   - ``initial_percentage`` (0-100, default 40), ``low_percentage`` (0-1, default 0.25): the robot heads for
     the dock below it; ``rate`` (Hz, default 2): battery_status
   - ``gauge`` (``ideal``; ``realistic``: config/battery_realistic.yaml; ``impedance_track`` or ``modelgauge``:
@@ -27,52 +28,24 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from battery_simulator.core.config_files import default_config_path
-from battery_simulator.core.node_settings import Setting
-from battery_simulator.core.parameter_rules import is_number
-from battery_simulator.robot import base, clock as clock_rule, dock_contact, patrol
+from battery_simulator.robot import base, dock_contact, patrol
 from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s
-from battery_simulator.ros2.battery_sim import OneBattery, finish
+from battery_simulator.robot.demo_settings import SETTINGS, START_X_M
+from battery_simulator.ros2.one_battery import OneBattery
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
 from battery_simulator.ros2.fake_base import FakeBase
 from battery_simulator.ros2.patrol_and_dock import ROS2_DEFAULTS, PatrolAndDock
-from battery_simulator.ros2.robot_node import read_settings
 from battery_simulator.ros2.sim_clock import SimClock
 from battery_simulator.ros2.battery_claims import BatteryClaim
-from battery_simulator.ros2.startup import StartupError, ending_quietly, exit_on_startup_error, init, run
+from battery_simulator.ros2.startup import StartupError, ending_quietly, exit_on_startup_error, init, read_settings, run
 
-GAUGES = GAUGE_CONFIGS
-#: a mobile robot's cruising speed at most: the patrol, the dock's approach and its contact assume it
-MAX_ROBOT_SPEED = 2.0
 #: what else battery_demo takes on its command line (ROS 2's own)
 ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
-SPEED = next(s for s in clock_rule.SETTINGS if s.name == 'speed')
-SETTINGS = (
-    SPEED._replace(default=60.0, description='the whole demo runs this many times as fast as wall time'),
-    Setting('tick_hz', 100.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz',
-            'clock ticks per wall second (each wakes every node of the demo)', False),
-    Setting('initial_percentage', 40.0, lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]',
-            'battery level at start, %', False),
-    Setting('low_percentage', 0.25, lambda v: is_number(v) and 0 < v <= 1, 'a fraction in (0, 1]',
-            'the robot heads for the dock below this fraction', False),
-    Setting('rate', 2.0, lambda v: is_number(v) and 0 < v <= 1000, 'a number in (0, 1000] Hz',
-            'battery_status rate, Hz', False),
-    Setting('gauge', 'ideal', lambda v: v in GAUGES, 'ideal, realistic, impedance_track or modelgauge',
-            'ideal: the robot reads the truth; realistic: an aged pack and a coulomb-counting gauge; '
-            'impedance_track, modelgauge: an aged pack and a learning gauge (TI, Analog Devices) that the robot '
-            'lets rest on the dock once full', False),
-    Setting('config', '', lambda v: isinstance(v, str), 'a path to a YAML file (or empty: by gauge)',
-            'battery parameters (empty: config/battery.yaml, or battery_realistic.yaml with gauge realistic)', False),
-    Setting('robot_speed', 0.3, lambda v: is_number(v) and 0 < v <= MAX_ROBOT_SPEED,
-            'a number in (0, %g] m/s' % MAX_ROBOT_SPEED, "the robot's cruising speed", False),
-    Setting('dock_x', 0.0, is_number, 'a number (m)', 'the dock, x (m)', False),
-    Setting('dock_y', 0.0, is_number, 'a number (m)', 'the dock, y (m)', False),
-)
-START_X_M = 1.0   # the base starts off the dock: a robot that starts on it would charge at once
 
 
 def config_path(settings):
-    return settings['config'] or str(Path(default_config_path()).parent / GAUGES[settings['gauge']])
+    return settings['config'] or str(Path(default_config_path()).parent / GAUGE_CONFIGS[settings['gauge']])
 
 
 class Demo:
@@ -122,7 +95,7 @@ class Demo:
         """At a stop signal: the clock stops, the battery's goal ends and its state is saved."""
         if self.clock is not None:
             self.clock.stop()
-        return finish(self.battery.front) if self.battery is not None else (lambda: True)
+        return self.battery.finish() if self.battery is not None else (lambda: True)
 
 
 def main(args=None):

@@ -13,7 +13,7 @@ from std_msgs.msg import Bool
 from battery_simulator.core import ros_names
 from battery_simulator.robot import dock_contact as rule
 from battery_simulator.ros2.qos import LATCHED_QOS
-from battery_simulator.ros2.robot_node import run_node
+from battery_simulator.ros2.startup import run_node
 
 
 class DockContact:

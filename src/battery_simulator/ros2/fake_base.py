@@ -13,7 +13,7 @@ from nav_msgs.msg import Odometry
 
 from battery_simulator.core import ros_names
 from battery_simulator.robot import base
-from battery_simulator.ros2.robot_node import run_node
+from battery_simulator.ros2.startup import run_node
 from battery_simulator.ros2.twist import TwistSubscriber
 
 try:

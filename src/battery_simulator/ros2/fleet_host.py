@@ -39,17 +39,17 @@ from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, Fle
 from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_s
 from battery_simulator.msg import BatteryFleetState
+from battery_simulator.core.ros_names import STATUS_NODE
+from battery_simulator.ros2 import prediction_service
 from battery_simulator.ros2.action_server import BatterySimServer
-from battery_simulator.ros2 import services
-from battery_simulator.ros2.battery_sim import (STATUS_NODE, STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
-                                                 declare_mode, diagnostics_publisher, make_battery,
-                                                 read_publisher_settings)
-from battery_simulator.ros2.log import NodeLog
+from battery_simulator.ros2.battery_settings import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
+                                                     declare_mode, make_battery, read_publisher_settings)
+from battery_simulator.ros2.log import RobotLog
 from battery_simulator.ros2.battery_claims import BatteryClaim
 from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, own_node,
                                             parameter_name, run, steady_clock)
-from battery_simulator.ros2.state_publisher import BatteryStatePublisher
+from battery_simulator.ros2.state_publisher import BatteryStatePublisher, diagnostics_publisher
 from battery_simulator.ros2.velocity import GraphTypes
 
 FLEET_STATES = '/battery_fleet/states'
@@ -126,7 +126,7 @@ class Robot:
         self.node = own_node(ROBOT_NODE, child_namespace(host_namespace, spec.name))
         explain_parameter_refusals(self.node)
         executor.add_node(self.node)
-        self.log = NodeLog(self.node.get_logger())
+        self.log = RobotLog(self.node.get_logger())
         charging = declare_mode(self.node, spec.charging)
         battery_settings = dict(settings.battery, initial_percentage=spec.initial_percentage)
         self.battery = make_battery(self.node, battery_settings, params, charging, self.log)
@@ -150,7 +150,7 @@ class SharedRobot:
     def __init__(self, spec, settings, params, store, host_node, live, graph_types):
         self.name = spec.name
         self.node = host_node
-        self.log = NodeLog(host_node.get_logger().get_child(spec.name))
+        self.log = RobotLog(host_node.get_logger().get_child(spec.name))
         battery_settings = dict(settings.battery, initial_percentage=spec.initial_percentage)
         self.battery = make_battery(host_node, battery_settings, params, spec.charging, self.log)
         for name, value in live.items():
@@ -184,7 +184,7 @@ class FleetHost:
         self._node = node
         save_period_s = fleet_save_period_s(1.0 if node.get_parameter('use_sim_time').value else
                                             settings.battery['time_scale'])
-        self._store = FleetStateFile(settings.battery['state_file'], NodeLog(node.get_logger()).warn,
+        self._store = FleetStateFile(settings.battery['state_file'], RobotLog(node.get_logger()).warn,
                                      period_s=save_period_s) if settings.battery['state_file'] else _NoStore()
         self.shared = len(settings.robots) > PARAMETER_SERVICES_UP_TO
         live = host_live_settings(node) if self.shared else {}
@@ -270,7 +270,7 @@ class _NoStore:
 
 def finish(host):
     finished = host.finish()
-    services.stop_workers()
+    prediction_service.stop_workers()
     return finished
 
 
@@ -290,7 +290,7 @@ def main(args=None):
             host = FleetHost(node, settings, executor)
         except StartupError as error:
             exit_on_startup_error(error, node.get_logger())
-        services.start_workers()
+        prediction_service.start_workers()
         for robot in host.robots:
             if robot.resumed:
                 say_ready(robot.battery, robot.log, robot.resumed, resumed_only=True)

@@ -2,7 +2,7 @@
 a publisher takes (ros1/messages.py's twin)."""
 from sensor_msgs.msg import BatteryState
 
-from battery_simulator.core.battery import fill_fields
+from battery_simulator.core.battery_record import fill_fields
 from battery_simulator.msg import BatterySimState
 
 

@@ -25,12 +25,11 @@ from battery_simulator.action import BatterySim
 from battery_simulator.core import ros_names
 from battery_simulator.robot import patrol as rule
 from battery_simulator.ros2.qos import LATCHED_QOS, STATUS_QOS
-from battery_simulator.ros2.robot_node import run_node
-from battery_simulator.ros2.startup import steady_clock
+from battery_simulator.ros2.startup import run_node, steady_clock
 
 STARTUP_WAIT_S = 30.0   # wall seconds to wait for the battery's action server and its first battery_status
 STARTUP_CHECK_S = 0.1
-PHASE_TOPIC = 'patrol_and_dock/phase'
+PHASE_TOPIC = ros_names.PHASE
 ROS2_DEFAULTS = {'waypoints': rule.DEFAULT_WAYPOINTS_FLAT}
 
 

@@ -18,9 +18,9 @@ import time
 from rosgraph_msgs.msg import Clock
 from rclpy.time import Time
 
+from battery_simulator.core import ros_names
 from battery_simulator.robot import clock as rule
-from battery_simulator.ros2.robot_node import run_node
-from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER
+from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER, run_node
 
 
 def clock_msg(seconds):
@@ -37,7 +37,7 @@ class SimClock:
         self._speed, self._start, self._tick_hz = speed, start, tick_hz
         self._wait_for = [node.resolve_topic_name(topic) for topic in wait_for]
         self._wait_timeout = wait_timeout
-        self._pub = node.create_publisher(Clock, '/clock', 10)
+        self._pub = node.create_publisher(Clock, ros_names.CLOCK, 10)
         self._stopped = threading.Event()
         self._thread = threading.Thread(target=self._run, name='sim_clock', daemon=True)
         if start_now:

@@ -19,13 +19,13 @@ import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from battery_simulator.core.node_settings import SettingError, check_setting
-from battery_simulator.core.parameter_rules import number_from_text
+from battery_simulator.core.parameter_rules import number_from_text, refusal
 from battery_simulator.ros2.rcl_args import rcl_problem
 
 EXIT_BAD_PARAMETER = 2
@@ -126,8 +126,7 @@ def parameter_refusal(node, parameters):
                 parameter.name, node.get_fully_qualified_name(), parameter.name)
         if not described.dynamic_typing and parameter.type_.value != described.type and \
                 described.type in TYPE_WORDS:
-            return '%s = %r is invalid: must be %s' % (parameter.name, parameter.value,
-                                                      TYPE_WORDS[described.type])
+            return refusal(parameter.name, parameter.value, 'must be ' + TYPE_WORDS[described.type])
     return None
 
 
@@ -261,3 +260,31 @@ def end_process(code, by):
         with contextlib.suppress(Exception):
             stream.flush()
     os._exit(code)
+
+
+# -- a loop node's main (fake_base, dock_contact, cmd_vel_gate, patrol_and_dock, sim_clock) -------------
+
+def read_settings(node, settings, defaults=None):
+    """The declared, checked settings of ``node``; one fatal line and exit 2 for a bad one."""
+    try:
+        return declare_settings(node, settings, defaults)
+    except StartupError as error:
+        exit_on_startup_error(error, node.get_logger())
+
+
+def nothing_to_finish():
+    """``run``'s finish for a node with nothing to save: done at once."""
+    return lambda: True
+
+
+def run_node(name, settings, make, args=None, defaults=None):
+    """A node's main: ``init``, Node ``name``, its settings (``defaults`` {name: value} over theirs),
+    ``make(node, **settings)``, spin until SIGINT or SIGTERM (``run``; then the role's ``finish()`` if it
+    has one)."""
+    with ending_quietly():
+        init(args)
+        node = Node(name)
+        role = make(node, **read_settings(node, settings, defaults))
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        run(executor, getattr(role, 'finish', nothing_to_finish))

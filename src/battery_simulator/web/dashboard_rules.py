@@ -6,10 +6,11 @@ graph, the services the controls call and the lines a node says.
 """
 import errno
 import math
+import time
 
 from battery_simulator.core import ros_names
 from battery_simulator.core.node_settings import Setting
-from battery_simulator.core.parameter_rules import is_number
+from battery_simulator.core.parameter_rules import is_number, refusal
 from battery_simulator.web.dashboard_model import BATTERY_FIELDS
 from battery_simulator.web.topic_discovery import discover
 
@@ -73,6 +74,27 @@ def sim_values(msg):
     values = {field: getattr(msg, field) for field in SIM_FIELDS}
     values['active_faults'] = list(values['active_faults'])
     return values
+
+
+def take_battery(hub, msg, battery):
+    """A BatteryState of ``battery``'s topic into the hub's model (both nodes' subscription callback)."""
+    values = battery_values(msg)
+    with hub.lock:
+        hub.model.on_battery(battery, values, time.time())
+
+
+def take_level(hub, msg, battery_and_kind):
+    """A battery_low / battery_critical Bool of ``battery`` (``kind``: low or critical) into the hub's model."""
+    battery, kind = battery_and_kind
+    with hub.lock:
+        hub.model.on_level_topic(battery, kind, msg.data, time.time())
+
+
+def take_sim_state(hub, msg, battery):
+    """A BatterySimState of ``battery``'s server into the hub's model."""
+    sim = sim_values(msg)
+    with hub.lock:
+        hub.model.on_sim_state(battery, sim, time.time())
 
 
 def fleet_host(publisher, fleet_topic):
@@ -144,10 +166,9 @@ def listen_problem(error, host, port, host_name, port_name):
     """The fatal line for an OSError of listening on host:port (``host_name``/``port_name``: how the node
     names its parameters)."""
     if error.errno == errno.EADDRINUSE:
-        return 'parameter %s = %d is invalid: %s:%d is in use; choose another port' % (port_name, port, host, port)
+        return refusal(port_name, port, '%s:%d is in use; choose another port' % (host, port))
     # an address this machine has not (or a name that does not resolve)
-    return 'parameter %s = %r is invalid: cannot listen on %s:%d (%s)' % (host_name, host, host, port,
-                                                                          error.strerror or error)
+    return refusal(host_name, host, 'cannot listen on %s:%d (%s)' % (host, port, error.strerror or error))
 
 
 def page_url(host, port):
