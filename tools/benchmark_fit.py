@@ -3,7 +3,7 @@
 
     /usr/bin/python3 tools/benchmark_fit.py [--runs 1h 24h 24h10hz 10M] [--no-interrupt]
 
-Each log is made with this simulator (test/unit/fit_logs.py: the core model, cmd_vel at 10 Hz, BatteryState
+Each log is made with this simulator (test/core/fit_logs.py: the core model, cmd_vel at 10 Hz, BatteryState
 at 1 Hz with noise; '24h10hz' and '10M' are the 24-hour log resampled to 10 Hz and to ten million rows, with
 the sensor's noise on every row), written as a CSV and fitted by battery_fit in a process of its own
 (reading, fit, replay for the figures, config). Printed: CPU and wall seconds, the peak memory, the held-out
@@ -24,7 +24,7 @@ import numpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SRC = os.path.join(HERE, '..', 'src')
-sys.path[:0] = [SRC, os.path.join(HERE, '..', 'test', 'unit')]
+sys.path[:0] = [SRC, os.path.join(HERE, '..', 'test', 'core')]
 
 import fit_logs  # noqa: E402
 

@@ -1,5 +1,5 @@
 """Scenarios whose figures were saved from the lumped model before the pack of groups and the gauge
-existed (test/data/lumped_model_figures.json, written by ``python3 test/unit/pack_scenarios.py``):
+existed (test/data/lumped_model_figures.json, written by ``python3 test/core/pack_scenarios.py``):
 with no spread and an ideal gauge the model must give them again to 1e-9."""
 import json
 import os

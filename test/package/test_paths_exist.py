@@ -51,7 +51,7 @@ def repository_files():
 
 
 FILES = repository_files()
-THIS_FILE = 'test/unit/test_paths_exist.py'   # it names stale paths on purpose (its own check's cases)
+THIS_FILE = 'test/package/test_paths_exist.py'   # it names stale paths on purpose (its own check's cases)
 FILE_SET = set(FILES)
 DIRECTORIES = {'/'.join(f.split('/')[:k]) for f in FILES for k in range(1, f.count('/') + 1)}
 
@@ -111,7 +111,7 @@ def test_every_path_named_in_a_doc_a_docstring_or_a_tool_exists():
     ('imported by (battery/, robot/, web/)', [(1, 'battery/')]),
     ('tools/mutation.sh mutates src/battery_simulator/battery/battery_state.py',
      [(1, 'src/battery_simulator/battery/battery_state.py')]),
-    ('core/pack.py, docs/model.md, ros1/startup.py, test/unit/conftest.py', []),
+    ('core/pack.py, docs/model.md, ros1/startup.py, test/conftest.py', []),
     ('geometry_msgs/Twist on /robot1/battery_status, <name>/battery_simulator, ~/.ros/log/x.py', []),
     ('https://example.com/a/b.py and build/devel/setup.bash', []),
 ])

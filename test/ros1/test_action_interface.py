@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: the battery_simulator action, the mode parameter and battery_status,
-end to end against sim.launch (test/action_interface.test, time_scale 1000)."""
+end to end against sim.launch (test/ros1/action_interface.test, time_scale 1000)."""
 import math
 import threading
 import time

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: what robots already run reads the battery unchanged (Part 7) - Nav2 Kilted's TwistStamped cmd_vel,
-opennav_docking's battery_state under the robot's namespace (test/consumers.test, in /robot1)."""
+opennav_docking's battery_state under the robot's namespace (test/ros1/consumers.test, in /robot1)."""
 import threading
 import unittest
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""rostest: the live dashboard (test/dashboard.test) read the way a person reads it, in headless
+"""rostest: the live dashboard (test/ros1/dashboard.test) read the way a person reads it, in headless
 Chromium: a fleet of five, each level as battery_status says, a set_state within 1 s, low and
 critical marked, the detail page's charts (with controls, and read-only without any), the
 controls' checks, a battery with NaN fields that goes stale and then away, 403 for a foreign
@@ -29,7 +29,7 @@ from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process,
 
 ROBOTS = ['robot%d' % k for k in range(5)]
 NAN_TOPIC = '/zz_nan/battery_status'   # sorts after the robots
-HISTORY_S = 10.0                       # ~history_s in test/dashboard.test
+HISTORY_S = 10.0                       # ~history_s in test/ros1/dashboard.test
 SECOND_HOST_ROBOTS = ['zz_fleet_a', 'zz_fleet_b']   # a second fleet host's robots (sort after the robots)
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""rostest: fleet hosts (test/fleet.test): fleet.launch n:=6 hosts:=2 splits the robots
+"""rostest: fleet hosts (test/ros1/fleet.test): fleet.launch n:=6 hosts:=2 splits the robots
 between two processes, staggered; the list form of ~robots; ~states; a SIGKILLed host
 is respawned and every robot resumes within 1 %; a host of 100 robots starts under a
 soft limit of 1024 open files."""
@@ -21,7 +21,7 @@ from battery_simulator.srv import InjectFault, SetLoad, SetState
 from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOTS = ['robot%d' % k for k in range(6)]
-RATE_HZ = 5.0   # fleet.launch rate in test/fleet.test
+RATE_HZ = 5.0   # fleet.launch rate in test/ros1/fleet.test
 
 
 def node_pid(node):

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: hostile input against the robot-loop and operations surfaces of one
-battery in the namespace robot1 (test/hardening.test: time_scale 10, rate 2,
+battery in the namespace robot1 (test/ros1/hardening.test: time_scale 10, rate 2,
 the noisiest sensor the config allows). Nothing an input does may freeze the
 server, overflow, or flood the log or battery_status."""
 import math

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """rostest: diagnostics (and their aggregation under Power System), the test
 controls set_state / reset / inject_fault, and dynamic_reconfigure
-(test/operations.test, time_scale 10, update_rate 100, rate 50)."""
+(test/ros1/operations.test, time_scale 10, update_rate 100, rate 50)."""
 import math
 import statistics
 import unittest

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: battery_simulator/predict against what the battery then does
-(test/prediction.test, robot1, time x100, 50 updates a second).
+(test/ros1/prediction.test, robot1, time x100, 50 updates a second).
 
 Each agreement test asks for a prediction, then applies the same plan for real
 (set_load for power, cmd_vel for motion, set_charging for the charge), paced

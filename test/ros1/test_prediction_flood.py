@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""rostest: predicts at once and a predict flood against a lone battery (test/predict_flood.test, issue 40
+"""rostest: predicts at once and a predict flood against a lone battery (test/ros1/prediction_flood.test, issue 40
 item 6).
 
   - Forty predicts of one-hour plans at once (each its own connection): every one is answered within

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: a predict storm on robot0 of a fleet host leaves its neighbours as they are
-(test/prediction_storm.test).
+(test/ros1/prediction_storm.test).
 
 Eight clients (another process: their own work is not this one's) ask robot0
 for one-hour plans of 3600 different one-second loads as fast as they are

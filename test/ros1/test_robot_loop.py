@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: motion and payload load, charger contact and docking, the cut-off
-gate and the low/critical events (test/robot_loop.test, time_scale 20, rate 0.2)."""
+gate and the low/critical events (test/ros1/robot_loop.test, time_scale 20, rate 0.2)."""
 import math
 import threading
 import time

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: the cut-off gate forwards TwistStamped as TwistStamped (and Twist as Twist), its stop at Empty is
-of the type it forwards, and fake_base drives on either (test/twist_stamped.test)."""
+of the type it forwards, and fake_base drives on either (test/ros1/twist_stamped.test)."""
 import threading
 import unittest
 

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """rostest: a server whose model worker dies (a fault planted in the model's step,
-test/nodes/planted_fault_server.py) ends with one FATAL line and a non-zero exit
+test/ros1/planted_fault_server.py) ends with one FATAL line and a non-zero exit
 instead of serving a frozen state for ever; respawned, it resumes within 1 %."""
 import unittest
 
