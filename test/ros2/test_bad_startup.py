@@ -51,3 +51,22 @@ def test_a_goal_after_server_shutting_down_is_rejected():
     finally:
         node.destroy_node()
         probe.close()
+
+
+@pytest.mark.parametrize('ros_args, named', [
+    (('-p', 'time_scale:=-1.0'), 'time_scale'),
+    (('-p', 'initial_percentage:=120.0'), 'initial_percentage'),
+    (('-p', 'config:=/nonexistent.yaml'), 'config'),
+    (('-p', 'critical_percentage:=0.5'), 'critical_percentage'),
+    (('-p', 'load_current_a:=-3.0'), 'load_current_a'),
+])
+def test_bad_startup_value_ends_with_one_line(ros_args, named):
+    process = NodeProcess('battery_sim', '-r', '__ns:=/bad', *ros_args)
+    try:
+        status = process.wait(20.0)
+        assert status not in (None, 0), 'a bad %s ends the process non-zero (%r)' % (named, status)
+        fatal = [line for line in process.output().splitlines() if 'invalid' in line]
+        assert len(fatal) == 1 and named in fatal[0], process.output()
+        assert 'Traceback' not in process.output(), process.output()
+    finally:
+        process.stop()

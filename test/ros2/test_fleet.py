@@ -15,7 +15,7 @@ import pytest
 from battery_simulator.action import BatterySim
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.fleet_host import PARAMETER_SERVICES_UP_TO
-from ros2_probe import LATCHED, NodeProcess, Probe
+from ros2_probe import DISCHARGING, LATCHED, NodeProcess, Probe, set_state, status_after
 
 ROBOTS = PARAMETER_SERVICES_UP_TO + 1
 CHARGING = BatteryState.POWER_SUPPLY_STATUS_CHARGING
@@ -26,6 +26,27 @@ def probe():
     probe = Probe('large_fleet_probe')
     yield probe
     probe.close()
+
+
+def test_fleet_of_ten_in_one_process(probe):
+    process = NodeProcess('battery_fleet', '-p', 'robots:=10', '-p', 'prefix:=fleetbot', '-p', 'time_scale:=50.0')
+    try:
+        for k in range(10):
+            msg = probe.wait_for('/fleetbot%d/battery_status' % k, BatteryState, timeout_s=30.0)
+            assert msg is not None, 'fleetbot%d/battery_status:\n%s' % (k, process.output())
+        fleet = probe.wait_for('/battery_fleet/states', BatteryFleetState, lambda m: len(m.names) == 10, 10.0)
+        assert fleet is not None and sorted(fleet.names) == sorted('fleetbot%d' % k for k in range(10))
+        assert probe.set_parameter('/fleetbot3/battery_simulator', 'charging', True).successful
+        assert status_after(probe, '/fleetbot3', lambda m: m.power_supply_status == CHARGING, 2.0) is not None
+        other = status_after(probe, '/fleetbot4', lambda m: True)
+        assert other.power_supply_status == DISCHARGING, 'one robot\'s charging is its own'
+        client = probe.action_client(BatterySim, '/fleetbot5/battery_simulator')
+        assert set_state(probe, '/fleetbot5', 99.5).success
+        result = probe.result(probe.send_goal(client, BatterySim.Goal(charge_state=True)), 60.0)
+        assert result.result.battery_status == 'Full'
+        assert len(process.output().splitlines()) < 40, 'a fleet does not log per level'
+    finally:
+        assert process.stop() == 0, process.output()
 
 
 def test_a_fleet_over_100_keeps_every_robots_names_and_sets_its_mode_by_set_charging(probe):
