@@ -7,10 +7,11 @@ import sys
 import tempfile
 
 import pytest
+from sensor_msgs.msg import BatteryState
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from ros2_probe import NodeProcess, Probe  # noqa: E402 (from HERE)
+from ros2_probe import NodeProcess, Probe  # noqa: E402 (found in HERE)
 
 DOMAINS = range(1, 101)
 _held = []   # the lock file of this run's domain, open (and locked) until the process ends
