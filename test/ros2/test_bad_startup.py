@@ -13,36 +13,8 @@ from battery_simulator.ros2.log import NodeLog
 from ros2_probe import NodeProcess, Probe
 
 
-BAD_VALUES = [(('-p', 'time_scale:=-1.0'), 'time_scale'),
-              (('-p', 'initial_percentage:=120.0'), 'initial_percentage'),
-              (('-p', 'config:=/nonexistent.yaml'), 'config'),
-              (('-p', 'critical_percentage:=0.5'), 'critical_percentage'),
-              (('-p', 'load_current_a:=-3.0'), 'load_current_a')]
-DEMO_ARGUMENTS = [('robot_speed:=1e9', 'robot_speed'), ('spede:=240', 'spede')]
-
-
-@pytest.fixture(scope='module')
-def secret(tmp_path_factory):
-    secret = tmp_path_factory.mktemp('etc') / 'passwd'
-    secret.write_text(''.join('user%d:x:%d:%d:secret%d:/home/user%d:/bin/bash\n' % ((k,) * 5) for k in range(40)))
-    return secret
-
-
-@pytest.fixture(scope='module')
-def started(secret):
-    """Every bad start of this file at once, each in a namespace of its own: they are independent, and one after
-    another they took 30 s of this file's 38 here. Each test then reads its own process."""
-    processes = {'config': NodeProcess('battery_sim', '-r', '__ns:=/badconfig', '-p', 'config:=' + str(secret))}
-    for argument, named in DEMO_ARGUMENTS:
-        processes[named] = NodeProcess('battery_demo', '-r', '__ns:=/baddemo_' + named, '-p', argument)
-    for ros_args, named in BAD_VALUES:
-        processes['sim ' + named] = NodeProcess('battery_sim', '-r', '__ns:=/bad_' + named, *ros_args)
-    yield processes
-    for process in processes.values():
-        process.stop()
-
-
-def one_fatal_line(process, timeout_s=30.0):
+def one_fatal_line(executable, *ros_args, timeout_s=30.0):
+    process = NodeProcess(executable, *ros_args)
     code = process.wait(timeout_s)
     if code is None:
         process.stop()
@@ -52,15 +24,17 @@ def one_fatal_line(process, timeout_s=30.0):
     return lines[0]
 
 
-def test_a_config_that_is_not_one_is_named_never_printed(started, secret):
-    line = one_fatal_line(started['config'])
+def test_a_config_that_is_not_one_is_named_never_printed(tmp_path):
+    secret = tmp_path / 'passwd'
+    secret.write_text(''.join('user%d:x:%d:%d:secret%d:/home/user%d:/bin/bash\n' % ((k,) * 5) for k in range(40)))
+    line = one_fatal_line('battery_sim', '-r', '__ns:=/badconfig', '-p', 'config:=' + str(secret))
     assert str(secret) in line and 'config' in line
-    assert 'secret' not in line.replace(str(secret.parent), '') and '/bin/bash' not in line, line
+    assert 'secret' not in line.replace(str(tmp_path), '') and '/bin/bash' not in line, line
 
 
-@pytest.mark.parametrize('argument, named', DEMO_ARGUMENTS)
-def test_battery_demo_refuses_a_bad_or_unknown_parameter(started, argument, named):
-    line = one_fatal_line(started[named])
+@pytest.mark.parametrize('argument, named', [('robot_speed:=1e9', 'robot_speed'), ('spede:=240', 'spede')])
+def test_battery_demo_refuses_a_bad_or_unknown_parameter(argument, named):
+    line = one_fatal_line('battery_demo', '-r', '__ns:=/baddemo', '-p', argument)
     assert named in line and 'battery_demo' in line, line
 
 
@@ -79,11 +53,20 @@ def test_a_goal_after_server_shutting_down_is_rejected():
         probe.close()
 
 
-@pytest.mark.parametrize('ros_args, named', BAD_VALUES)
-def test_bad_startup_value_ends_with_one_line(started, ros_args, named):
-    process = started['sim ' + named]
-    status = process.wait(20.0)
-    assert status not in (None, 0), 'a bad %s ends the process non-zero (%r)' % (named, status)
-    fatal = [line for line in process.output().splitlines() if 'invalid' in line]
-    assert len(fatal) == 1 and named in fatal[0], process.output()
-    assert 'Traceback' not in process.output(), process.output()
+@pytest.mark.parametrize('ros_args, named', [
+    (('-p', 'time_scale:=-1.0'), 'time_scale'),
+    (('-p', 'initial_percentage:=120.0'), 'initial_percentage'),
+    (('-p', 'config:=/nonexistent.yaml'), 'config'),
+    (('-p', 'critical_percentage:=0.5'), 'critical_percentage'),
+    (('-p', 'load_current_a:=-3.0'), 'load_current_a'),
+])
+def test_bad_startup_value_ends_with_one_line(ros_args, named):
+    process = NodeProcess('battery_sim', '-r', '__ns:=/bad', *ros_args)
+    try:
+        status = process.wait(20.0)
+        assert status not in (None, 0), 'a bad %s ends the process non-zero (%r)' % (named, status)
+        fatal = [line for line in process.output().splitlines() if 'invalid' in line]
+        assert len(fatal) == 1 and named in fatal[0], process.output()
+        assert 'Traceback' not in process.output(), process.output()
+    finally:
+        process.stop()
