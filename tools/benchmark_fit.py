@@ -3,13 +3,13 @@
 
     /usr/bin/python3 tools/benchmark_fit.py [--runs 1h 24h 24h10hz 10M vehicle] [--no-interrupt]
 
-Each log is made with this simulator (test/unit/fit_logs.py: the core model, cmd_vel at 10 Hz, BatteryState
+Each log is made with this simulator (test/core/fit_logs.py: the core model, cmd_vel at 10 Hz, BatteryState
 at 1 Hz with noise; '24h10hz' and '10M' are the 24-hour log resampled to 10 Hz and to ten million rows, with
 the sensor's noise on every row), written as a CSV and fitted by battery_fit in a process of its own
 (reading, fit, replay for the figures, config). Printed: CPU and wall seconds, the peak memory, the held-out
 voltage RMSE of the report beside the limits and the reference run below; the exit status is 1 when a limit
 is broken. Then battery_fit on the largest log is sent SIGINT (Ctrl-C) mid-run: it must stop within 2 s,
-without a config. 'vehicle': the 96S1P vehicle of test/unit/test_fit_foreign.py at its BMS's 10 Hz (the unit
+without a config. 'vehicle': the 96S1P vehicle of test/core/test_fit_foreign.py at its BMS's 10 Hz (the unit
 test fits it at 2 Hz), its held-out figure within the SOC range the fitted parts cover (at most 15 mV per cell).
 """
 import argparse
@@ -25,7 +25,7 @@ import numpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SRC = os.path.join(HERE, '..', 'src')
-sys.path[:0] = [SRC, os.path.join(HERE, '..', 'test', 'unit')]
+sys.path[:0] = [SRC, os.path.join(HERE, '..', 'test', 'core')]
 
 import fit_logs  # noqa: E402
 

@@ -3,9 +3,9 @@
 # (a developer tool from PyPI, in a venv of its own made with
 # --system-site-packages; never a runtime dependency).
 #
-#   tools/mutation.sh                          # the default modules (below) against test/unit/
+#   tools/mutation.sh                          # the default modules (below) against test/core/
 #   tools/mutation.sh pack gauge               # only these modules of src/battery_simulator/core/
-#   tools/mutation.sh pack gauge -- test/unit/test_pack_cycles.py test/unit/test_pack_and_gauge.py
+#   tools/mutation.sh pack gauge -- test/core/test_pack_cycles.py test/core/test_pack.py
 #                                              # ... and run only these tests (a loaded machine)
 #
 # A module is a name under src/battery_simulator/core/ (pack) or a path from the
@@ -24,7 +24,7 @@ while [ $# -gt 0 ]; do
   modules+=("$1"); shift
 done
 [ ${#modules[@]} -gt 0 ] || modules=(battery_model pack gauge parameter_rules replay)
-[ ${#tests[@]} -gt 0 ] || tests=(test/unit/)
+[ ${#tests[@]} -gt 0 ] || tests=(test/core/)
 paths=()
 for module in "${modules[@]}"; do
   case $module in
@@ -65,9 +65,9 @@ $(printf '  %s\n' "${copied[@]}")
 pytest_add_cli_args =
   -p
   no:cacheprovider
-  --ignore=test/unit/test_packaging.py
-  --ignore=test/unit/test_summary.py
-  --ignore=test/unit/test_paths_exist.py
+  --ignore=test/package/test_packaging.py
+  --ignore=test/tools/test_summarize_test_results.py
+  --ignore=test/package/test_paths_exist.py
 CFG
 cd "$work"
 unset ROS_PACKAGE_PATH CMAKE_PREFIX_PATH

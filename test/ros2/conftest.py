@@ -6,8 +6,13 @@ import os
 import sys
 import tempfile
 
+import pytest
+from sensor_msgs.msg import BatteryState
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+from ros2_probe import NodeProcess, Probe  # noqa: E402 (found in HERE)
+
 DOMAINS = range(1, 101)
 _held = []   # the lock file of this run's domain, open (and locked) until the process ends
 
@@ -33,3 +38,22 @@ def pytest_configure(config):
     assert os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') == 'SYSTEM_DEFAULT'
     # before any node starts; the pid spreads concurrent runs, the lock makes them differ
     os.environ['ROS_DOMAIN_ID'] = str(take_domain(os.getpid() % len(DOMAINS)))
+
+
+@pytest.fixture(scope='module')
+def probe():
+    probe = Probe()
+    yield probe
+    probe.close()
+
+
+@pytest.fixture(scope='module')
+def sim(probe):
+    """One battery_sim in /sim, fast (time x200, 20 Hz updates, battery_status at 5 Hz)."""
+    process = NodeProcess('battery_sim', '-r', '__ns:=/sim', '-p', 'time_scale:=100.0', '-p', 'update_rate:=20.0',
+                          '-p', 'rate:=5.0')
+    assert probe.wait_for('/sim/battery_status', BatteryState, timeout_s=20.0) is not None, \
+        'no battery_status from battery_sim within 20 s:\n' + process.output()
+    yield process
+    assert process.stop() == 0, 'battery_sim did not end cleanly on SIGINT:\n' + process.output()
+    assert 'Traceback' not in process.output(), process.output()

@@ -1,6 +1,7 @@
 """What the ROS 2 node tests share: start a node process (ended by pid), and a probe node in the
 test process that waits for messages, calls services, sets parameters and sends goals, each with
 a bound. Run under tools/ros2.sh (its environment keeps DDS on 127.0.0.1)."""
+import math
 import os
 import signal
 import subprocess
@@ -15,9 +16,17 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.srv import SetParameters
+from sensor_msgs.msg import BatteryState
+
+from battery_simulator.srv import SetState
 
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+NAN = math.nan
+CHARGING, DISCHARGING, NOT_CHARGING, FULL = (BatteryState.POWER_SUPPLY_STATUS_CHARGING,
+                                             BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
+                                             BatteryState.POWER_SUPPLY_STATUS_NOT_CHARGING,
+                                             BatteryState.POWER_SUPPLY_STATUS_FULL)
 
 
 class NodeProcess:
@@ -153,3 +162,14 @@ def udp_sockets(pids):
             if 'pid=%d,' % pid in line:
                 found.append((pid, line.split()[3]))
     return found
+
+
+def set_state(probe, ns, percentage=NAN, temperature_c=NAN, state_of_health=NAN):
+    return probe.call(SetState, ns + '/battery_simulator/set_state', SetState.Request(
+        percentage=float(percentage), temperature_c=float(temperature_c), state_of_health=float(state_of_health)))
+
+
+def status_after(probe, ns, predicate, timeout_s=5.0, since=None):
+    """The first battery_status of ``ns`` after ``since`` (default now) that satisfies ``predicate``, or None."""
+    return probe.wait_for(ns + '/battery_status', BatteryState, predicate, timeout_s,
+                          since=time.monotonic() if since is None else since)

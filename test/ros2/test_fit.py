@@ -8,7 +8,7 @@ import sys
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, '..', 'unit'))
+sys.path.insert(0, os.path.join(HERE, '..', 'core'))
 
 import fit_logs  # noqa: E402
 from battery_simulator.core.config_files import load_yaml  # noqa: E402

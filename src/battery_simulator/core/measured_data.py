@@ -1,7 +1,7 @@
 """Measured cell tests (cycler CSV exports) and the model run against them (no rospy).
 
 Used to fit the LG HG2 preset (tools/fit_lg_hg2.py) and to validate the model
-(test/unit/test_validation.py). The format is the one in test/data/lg_hg2/.
+(test/core/test_measured_data.py). The format is the one in test/data/lg_hg2/.
 """
 import csv
 import math

@@ -1,6 +1,6 @@
 """The demo's settings, written once (no ROS): battery_demo's parameters (ros2/demo.py), demo.launch.py's
 arguments (their defaults read from here) and demo.launch's (the same defaults, checked against these by
-test/unit/test_demo_settings.py: roslaunch's XML cannot import Python).
+test/robot/test_demo_settings.py: roslaunch's XML cannot import Python).
 
 ``tick_hz`` is 250 in all three (it was 100 in battery_demo): 0.24 s of ROS time a tick at speed 60, as
 sim.launch under demo.launch has always ticked; 1000 (Gazebo's) would make every node handle 1000 /clock

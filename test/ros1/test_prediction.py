@@ -1,0 +1,213 @@
+#!/usr/bin/python3
+"""rostest: battery_simulator/predict against what the battery then does
+(test/ros1/prediction.test, robot1, time x100, 50 updates a second).
+
+Each agreement test asks for a prediction, then applies the same plan for real
+(set_load for power, cmd_vel for motion, set_charging for the charge), paced
+by the clock (wall time x time_scale is the battery's time), and compares:
+the end level within 1 percentage point, the cut-off and the charge time
+within 2 %. Bad requests get success false and change nothing."""
+import bisect
+import math
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from geometry_msgs.msg import Twist
+from std_srvs.srv import SetBool
+
+from battery_simulator.msg import BatterySimState
+from battery_simulator.srv import Predict, PredictRequest, SetLoad, SetState
+from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
+
+MODE_PARAM = 'MyRobot/BatteryStatus'
+NAN = float('nan')
+PLAN_LOAD = 'test_plan'
+PAYLOAD = 'test_lidar'
+
+
+class MotionCommands:
+    """cmd_vel at 50 Hz while a motion is set (a robot's controller); set(0, 0) sends one stop."""
+
+    def __init__(self, publisher):
+        self._publisher = publisher
+        self._twist = None
+        self._lock = threading.Lock()
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def set(self, speed_mps, turn_radps):
+        twist = Twist()
+        twist.linear.x, twist.angular.z = speed_mps, turn_radps
+        self._publisher.publish(twist)
+        with self._lock:
+            self._twist = twist if speed_mps or turn_radps else None
+
+    def _run(self):
+        while not rospy.is_shutdown():
+            with self._lock:
+                twist = self._twist
+            if twist is not None:
+                self._publisher.publish(twist)
+            time.sleep(0.02)
+
+
+class TestPrediction(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_prediction')
+        cls.time_scale = rospy.get_param('~time_scale')
+        cls.state = Recorder('battery_simulator/state', BatterySimState)
+        for service in ('predict', 'set_state', 'set_load', 'set_charging'):
+            rospy.wait_for_service('battery_simulator/' + service, 30.0)
+        cls.predict = rospy.ServiceProxy('battery_simulator/predict', Predict, persistent=True)
+        cls.set_state = SetStateProxy('battery_simulator/set_state')
+        cls.set_load = rospy.ServiceProxy('battery_simulator/set_load', SetLoad)
+        cls.set_charging = rospy.ServiceProxy('battery_simulator/set_charging', SetBool)
+        cmd_vel = rospy.Publisher('cmd_vel', Twist, queue_size=10)
+        wait_for(lambda: cmd_vel.get_num_connections() > 0, 30.0, 'the server on cmd_vel')
+        cls.motion = MotionCommands(cmd_vel)
+        wait_for(lambda: cls.state.count() > 0, 30.0, 'battery_simulator/state')
+
+    def setUp(self):
+        self.motion.set(0.0, 0.0)
+        for name in (PLAN_LOAD, PAYLOAD):
+            self.assertTrue(self.set_load(name, 0.0).success)
+        self.set_charging(False)
+        rospy.set_param(MODE_PARAM, 0)
+
+    def start_at(self, percentage):
+        """Discharging from ``percentage`` at 25 degC (the RC pair settled)."""
+        self.assertTrue(self.set_state(percentage, 25.0, NAN).success)
+        self.state.wait_until(lambda m: m.charging_state == 'Discharging'
+                              and abs(m.battery.percentage - percentage / 100.0) < 0.01, 5.0,
+                              'discharging from %g %%' % percentage)
+
+    def ask(self, **fields):
+        response = self.predict(PredictRequest(**dict(dict(charge_to_percentage=NAN), **fields)))
+        self.assertTrue(response.success, response.message)
+        return response
+
+    def pace_until(self, plan_s, start):
+        """Wait until ``plan_s`` of the battery's time have passed since ``start`` (wall stamp, s)."""
+        until = start + plan_s / self.time_scale
+        deadline = time.monotonic() + plan_s / self.time_scale + 10.0
+        while rospy.get_time() < until:
+            self.assertLess(time.monotonic(), deadline, 'the clock stands still')
+            time.sleep(0.001)
+
+    def percentage_at(self, stamp_s):
+        """The level at ``stamp_s`` (wall), interpolated between the server's updates around it."""
+        wait_for(lambda: self.state.latest().battery.header.stamp.to_sec() > stamp_s, 5.0, 'an update after it')
+        states = [(m.battery.header.stamp.to_sec(), 100.0 * m.battery.percentage) for m in self.state.since(0)]
+        k = bisect.bisect_left([t for t, _ in states], stamp_s)
+        (t0, p0), (t1, p1) = states[k - 1], states[k]
+        return p0 + (p1 - p0) * (stamp_s - t0) / (t1 - t0)
+
+    def moment_of(self, predicate, since, timeout_s, what):
+        """The battery's time (s since ``since``, a wall stamp) at which ``predicate`` first held: the middle
+        of the update that saw it and the one before (the model finds the moment within its step)."""
+        index = self.state.count()
+        found = self.state.wait_new(index, predicate, timeout_s, what)
+        states = self.state.since(0)
+        k = next(i for i, m in enumerate(states) if m is found)
+        middle = 0.5 * (states[k - 1].battery.header.stamp.to_sec() + found.battery.header.stamp.to_sec())
+        return (middle - since) * self.time_scale
+
+    # -- agreement ------------------------------------------------------------------
+
+    def test_a_plan_of_power_and_motion_with_a_payload_ends_where_predicted(self):
+        self.start_at(80.0)
+        self.assertTrue(self.set_load(PAYLOAD, 5.0).success)
+        plan = [(600.0, 10.0, 0.0, 0.0), (600.0, 0.0, 0.2, 1.0), (600.0, 0.0, 0.0, 0.0)]
+        start = rospy.get_time()
+        predicted = self.ask(duration_s=[p[0] for p in plan], power_w=[p[1] for p in plan],
+                             speed_mps=[p[2] for p in plan], turn_radps=[p[3] for p in plan])
+        elapsed_s = 0.0
+        for duration_s, power_w, speed_mps, turn_radps in plan:
+            self.assertTrue(self.set_load(PLAN_LOAD, power_w).success)
+            self.motion.set(speed_mps, turn_radps)
+            elapsed_s += duration_s
+            self.pace_until(elapsed_s, start)
+        self.motion.set(0.0, 0.0)
+        real = self.percentage_at(start + elapsed_s / self.time_scale)
+        rospy.loginfo('plan: predicted %.2f %%, real %.2f %% (error %.2f pp); %s', predicted.end_percentage, real,
+                      real - predicted.end_percentage, predicted.message)
+        self.assertTrue(predicted.feasible and math.isnan(predicted.cut_off_at_s), predicted.message)
+        self.assertLess(predicted.end_percentage, 80.0 - 30.0, 'the plan takes a good part of the pack')
+        self.assertAlmostEqual(real, predicted.end_percentage, delta=1.0)
+
+    def test_the_cut_off_comes_when_predicted(self):
+        self.start_at(40.0)
+        start = rospy.get_time()
+        predicted = self.ask(duration_s=[3000.0], power_w=[20.0])
+        self.assertTrue(self.set_load(PLAN_LOAD, 20.0).success)
+        self.assertFalse(predicted.feasible, predicted.message)
+        real_s = self.moment_of(lambda m: m.charging_state == 'Empty', start,
+                                predicted.cut_off_at_s / self.time_scale + 10.0, 'the cut-off')
+        rospy.loginfo('cut-off: predicted %.0f s, real %.0f s (error %.2f %%)', predicted.cut_off_at_s, real_s,
+                      100.0 * (real_s / predicted.cut_off_at_s - 1.0))
+        self.assertAlmostEqual(real_s, predicted.cut_off_at_s, delta=0.02 * predicted.cut_off_at_s)
+
+    def test_the_charge_takes_the_predicted_time(self):
+        self.start_at(60.0)
+        to_90 = self.ask(charge_to_percentage=90.0)
+        to_full = self.ask(charge_to_percentage=100.0)
+        start = rospy.get_time()
+        self.assertTrue(self.set_charging(True).success)
+        real_90_s = self.moment_of(lambda m: m.battery.percentage >= 0.9, start,
+                                   to_90.charge_time_s / self.time_scale + 10.0, '90 %')
+        real_full_s = self.moment_of(lambda m: m.charging_state == 'Full', start,
+                                     to_full.charge_time_s / self.time_scale + 10.0, 'Full')
+        for predicted, real_s in ((to_90, real_90_s), (to_full, real_full_s)):
+            rospy.loginfo('charge: predicted %.0f s, real %.0f s (error %.2f %%)', predicted.charge_time_s, real_s,
+                          100.0 * (real_s / predicted.charge_time_s - 1.0))
+            self.assertAlmostEqual(real_s, predicted.charge_time_s, delta=0.02 * predicted.charge_time_s)
+        self.assertGreater(to_full.charge_time_s, to_90.charge_time_s + 600.0, 'the CV taper')
+
+    def test_charge_to_percentage_left_out_means_no_charge(self):
+        """A message's charge_to_percentage defaults to 0: no charge, as NaN (it answered "charged in 0 s")."""
+        self.start_at(70.0)
+        response = self.predict(PredictRequest(duration_s=[600.0], power_w=[5.0]))
+        self.assertTrue(response.success, response.message)
+        self.assertTrue(math.isnan(response.charge_time_s), response.charge_time_s)
+        self.assertNotIn('charged', response.message)
+        self.assertGreater(self.ask(duration_s=[600.0], charge_to_percentage=90.0).charge_time_s, 60.0)
+
+    # -- bad requests ----------------------------------------------------------------
+
+    def test_bad_requests_are_refused_naming_the_field_and_nothing_changes(self):
+        self.start_at(70.0)
+        rospy.delete_param(MODE_PARAM)   # hold: the level stands still, so any change would show
+        held = self.state.wait_until(lambda m: m.charging_state == 'Not Charging', 5.0, 'holding')
+        for fields, field in ((dict(duration_s=[60.0, 60.0], power_w=[1.0]), 'power_w'),
+                              (dict(duration_s=[-1.0]), 'duration_s[0]'),
+                              (dict(duration_s=[10.0, NAN]), 'duration_s[1]'),
+                              (dict(duration_s=[8 * 86400.0]), 'duration_s'),
+                              (dict(duration_s=[60.0], power_w=[1e6]), 'power_w[0]'),
+                              (dict(duration_s=[60.0], current_a=[100.0]), 'current_a[0]'),
+                              (dict(duration_s=[60.0], speed_mps=[1e9]), 'speed_mps[0]'),
+                              (dict(charge_to_percentage=150.0), 'charge_to_percentage')):
+            response = self.predict(PredictRequest(**dict(dict(charge_to_percentage=NAN), **fields)))
+            self.assertFalse(response.success, '%r accepted' % fields)
+            self.assertIn(field, response.message)
+        # more segments than the limit: refused naming it, before the plan is unpacked (1 s each: 28 h, < 7 days)
+        response = self.predict(PredictRequest(duration_s=[1.0] * 100001, charge_to_percentage=NAN))
+        self.assertFalse(response.success, '100001 segments accepted')
+        self.assertEqual(response.message, 'duration_s has 100001 entries, which is invalid: a plan has at most '
+                                           '100000 segments (a day at one-second resolution)')
+        heavy = self.ask(duration_s=[600.0, 3000.0], power_w=[50.0, 20.0], speed_mps=[0.2, 0.0],
+                         charge_to_percentage=100.0)
+        self.assertFalse(heavy.feasible)
+        self.assertGreater(heavy.charge_time_s, 0.0)
+        after = self.state.next_after(self.state.count() + 5)
+        self.assertEqual(after.battery.percentage, held.battery.percentage, 'the level moved')
+        self.assertEqual(after.charging_state, 'Not Charging')
+        self.assertEqual(after.load_power_w, 0.0)
+        self.assertFalse(rospy.has_param(MODE_PARAM), 'the mode parameter was touched')
+
+
+if __name__ == '__main__':
+    rostest.rosrun('battery_simulator', result_name('prediction'), TestPrediction)

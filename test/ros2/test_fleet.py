@@ -1,0 +1,89 @@
+"""Issue 42 item 1: a fleet host larger than PARAMETER_SERVICES_UP_TO (100) keeps every robot's names of Parts 3-4
+on its own node (action, services, cmd_vel of either type, charger_contact, battery_status, battery_state,
+low/critical, the diagnostics status) and sets a robot's mode through set_charging; its figures at 100-1000
+robots are tools/ros2_benchmark.py's (docs/performance.md)."""
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import TwistStamped
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool
+
+import pytest
+
+from battery_simulator.action import BatterySim
+from battery_simulator.msg import BatteryFleetState
+from battery_simulator.ros2.fleet_host import PARAMETER_SERVICES_UP_TO
+from ros2_probe import DISCHARGING, LATCHED, NodeProcess, Probe, set_state, status_after
+
+ROBOTS = PARAMETER_SERVICES_UP_TO + 1
+CHARGING = BatteryState.POWER_SUPPLY_STATUS_CHARGING
+
+
+@pytest.fixture(scope='module')
+def probe():
+    probe = Probe('large_fleet_probe')
+    yield probe
+    probe.close()
+
+
+def test_fleet_of_ten_in_one_process(probe):
+    process = NodeProcess('battery_fleet', '-p', 'robots:=10', '-p', 'prefix:=fleetbot', '-p', 'time_scale:=50.0')
+    try:
+        for k in range(10):
+            msg = probe.wait_for('/fleetbot%d/battery_status' % k, BatteryState, timeout_s=30.0)
+            assert msg is not None, 'fleetbot%d/battery_status:\n%s' % (k, process.output())
+        fleet = probe.wait_for('/battery_fleet/states', BatteryFleetState, lambda m: len(m.names) == 10, 10.0)
+        assert fleet is not None and sorted(fleet.names) == sorted('fleetbot%d' % k for k in range(10))
+        assert probe.set_parameter('/fleetbot3/battery_simulator', 'charging', True).successful
+        assert status_after(probe, '/fleetbot3', lambda m: m.power_supply_status == CHARGING, 2.0) is not None
+        other = status_after(probe, '/fleetbot4', lambda m: True)
+        assert other.power_supply_status == DISCHARGING, 'one robot\'s charging is its own'
+        client = probe.action_client(BatterySim, '/fleetbot5/battery_simulator')
+        assert set_state(probe, '/fleetbot5', 99.5).success
+        result = probe.result(probe.send_goal(client, BatterySim.Goal(charge_state=True)), 60.0)
+        assert result.result.battery_status == 'Full'
+        assert len(process.output().splitlines()) < 40, 'a fleet does not log per level'
+    finally:
+        assert process.stop() == 0, process.output()
+
+
+def test_a_fleet_over_100_keeps_every_robots_names_and_sets_its_mode_by_set_charging(probe):
+    process = NodeProcess('battery_fleet', '-r', '__ns:=/', '-p', 'robots:=%d' % ROBOTS, '-p', 'prefix:=big',
+                          '-p', 'time_scale:=1.0')
+    last = '/big%d' % (ROBOTS - 1)
+    try:
+        assert probe.wait_for(last + '/battery_status', BatteryState, timeout_s=90.0) is not None, process.output()
+        topics = dict(probe.node.get_topic_names_and_types())
+        for name in ('battery_status', 'battery_state', 'battery_low', 'battery_critical', 'cmd_vel',
+                     'charger_contact', 'battery_simulator/_action/status'):
+            assert last + '/' + name in topics, '%s/%s missing' % (last, name)
+        services = dict(probe.node.get_service_names_and_types())
+        for name in ('set_load', 'set_charging', 'set_state', 'reset', 'inject_fault', 'predict',
+                     '_action/send_goal'):
+            assert last + '/battery_simulator/' + name in services, '%s/battery_simulator/%s missing' % (last, name)
+        assert probe.wait_for(last + '/battery_low', Bool, timeout_s=10.0, qos=LATCHED) is not None
+        diagnostics = probe.wait_for('/diagnostics', DiagnosticArray, lambda m: any(
+            s.name == last.strip('/') + '/battery_state_pub: Battery' for s in m.status), 10.0)
+        assert diagnostics is not None, 'no diagnostics status %s/battery_state_pub: Battery' % last
+        fleet = probe.wait_for('/battery_fleet/states', BatteryFleetState, lambda m: len(m.names) == ROBOTS, 10.0)
+        assert fleet is not None
+        # the mode, per robot, through set_charging
+        assert probe.call(SetBool, last + '/battery_simulator/set_charging', SetBool.Request(data=True)).success
+        since = time.monotonic()
+        assert probe.wait_for(last + '/battery_status', BatteryState, lambda m: m.power_supply_status == CHARGING,
+                              5.0, since=since) is not None
+        other = probe.wait_for('/big0/battery_status', BatteryState, since=time.monotonic(), timeout_s=5.0)
+        assert other.power_supply_status != CHARGING, 'one robot\'s mode is its own'
+        # cmd_vel of Nav2 Kilted's type is taken on a shared node too
+        publisher = probe.node.create_publisher(TwistStamped, '/big3/cmd_vel', 1)
+        try:
+            assert process.wait_for_output('/big3/cmd_vel: taking geometry_msgs/TwistStamped', 15.0), \
+                process.output()[-2000:]
+        finally:
+            probe.node.destroy_publisher(publisher)
+        client = probe.action_client(BatterySim, last + '/battery_simulator')
+        assert probe.send_goal(client, BatterySim.Goal(charge_state=True)).accepted
+    finally:
+        assert process.stop() == 0, process.output()[-2000:]
