@@ -46,6 +46,7 @@ from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2 import services
+from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
 from battery_simulator.ros2.battery_sim import (STATUS_NODE, STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
                                                  declare_mode, diagnostics_publisher, make_battery,
                                                  read_publisher_settings)
@@ -337,8 +338,10 @@ class _EventsExecutor:
 
 def main(args=None):
     with ending_quietly():
+        profile = use_fleet_profile()
         init(args)
         node = Node('battery_fleet')
+        forget_profile(profile)
         explain_parameter_refusals(node)
         executor = fleet_executor()
         executor.add_node(node)
