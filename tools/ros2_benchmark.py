@@ -8,7 +8,10 @@ with every battery_status subscribed (RSS, CPU, launch to every first message, r
 
 Each fleet row: the host's RSS and CPU at steady state (1 Hz) beside a bare rclpy timer publisher measured in the
 same window, launch to every robot's first battery_status (a listener process of its own), /battery_fleet/states'
-rate, SIGINT to exit. --lean-dds: Fast DDS endpoints with histories allocated as used (LEAN_ENDPOINTS).
+rate, SIGINT to exit, and when /battery_fleet/states first held every robot (what the host itself published: the
+listener's own discovery of 27 endpoints a robot, with a subscription per robot, is part of its first figure).
+--lean-dds: every process's Fast DDS endpoints with histories allocated as used (LEAN_ENDPOINTS; the fleet host
+always has them, ros2/fleet_dds.py).
     tools/ros2.sh python3 tools/ros2_benchmark.py dashboard   # battery_dashboard, 100 robots, the page open
 """
 import http.client
@@ -230,11 +233,13 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
         firsts = [seen['first'][t] - started for t in topics if t in seen['first']]
         states = [at for at, count in seen['states'] if count == n]
         rate = (len(states) - 1) / (states[-1] - states[0]) if len(states) > 2 else float('nan')
+        whole = '%.1f s' % (states[0] - started) if states else 'never'   # every robot's state in one message
         rows.append(('fleet host, %d robots%s' % (n, ', lean DDS endpoints' if lean_dds else ''),
                      '%.0f MB, %.1f %% of a core; ready %.1f s; ended %.2f s after SIGINT' % (
                          memory, cpu[host.pid], ready_s, stop_s),
-                     'every first battery_status %s (%d of %d); fleet states %.2f Hz; bare publisher %.1f %%, %.0f MB'
-                     % ('%.1f s' % max(firsts) if len(firsts) == n else 'not all', len(firsts), n, rate,
+                     'every first battery_status %s (%d of %d), all %d in fleet states %s; fleet states %.2f Hz; '
+                     'bare publisher %.1f %%, %.0f MB'
+                     % ('%.1f s' % max(firsts) if len(firsts) == n else 'not all', len(firsts), n, n, whole, rate,
                         cpu[bare.pid], rss_mb(bare.pid)),
                      '<= 400 MB, <= 40 %, <= 20 s, 1 Hz, <= 2 s' if n == 1000 else ''))
     finally:
@@ -344,7 +349,8 @@ def main():
     rclpy.shutdown()
     widths = [max(len(str(r[i])) for r in rows + [('measurement', 'figure', 'beside it', 'target')])
               for i in range(4)]
-    print('\nROS 2 (rclpy %s, Fast DDS on 127.0.0.1, %d cores)' % (os.environ.get('ROS_DISTRO', '?'), os.cpu_count()))
+    print('\nROS 2 (rclpy %s, Fast DDS on 127.0.0.1, %d cores, load average %.1f at the end)' % (
+        os.environ.get('ROS_DISTRO', '?'), os.cpu_count(), os.getloadavg()[0]))
     for row in [('measurement', 'figure', 'beside it', 'target')] + rows:
         print('  '.join('%-*s' % (w, c) for w, c in zip(widths, row)))
 
