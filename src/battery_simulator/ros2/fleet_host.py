@@ -39,8 +39,8 @@ except ImportError:   # rclpy before Jazzy
 
 from battery_simulator.core.battery import BatteryError
 from battery_simulator.core.config_files import load_yaml
-from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, is_first,
-                                          is_fleet_rate, robot_configs, robot_params, robot_specs)
+from battery_simulator.core.fleet import (FLEET_SETTINGS, FLEET_STATES, ROBOTS_DESCRIPTION, FleetError, fleet_states,
+                                          robot_configs, robot_params, robot_specs)
 from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_s
 from battery_simulator.msg import BatteryFleetState
@@ -58,7 +58,6 @@ from battery_simulator.ros2.startup import (StartupError, child_namespace, decla
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher
 from battery_simulator.ros2.velocity import GraphTypes
 
-FLEET_STATES = '/battery_fleet/states'
 ROBOT_NODE = 'battery_simulator'
 #: a fleet of at most this many robots gives each robot a node ``<ns>/<name>/battery_simulator`` with its parameters
 #: (``ros2 param set /robot3/battery_simulator charging true``); a larger one puts every robot's names on the host's
@@ -80,21 +79,13 @@ class FleetSettings:
     """The host's parameters, checked: one fatal line for a bad one."""
 
     def __init__(self, node):
-        declared = {name: node.declare_parameter(name, default, _any(text)).value for name, default, text in (
-            ('robots', 1, 'a count N, or the path of a YAML list of {name, config, initial_percentage, charging}'),
-            ('prefix', 'robot', 'with a count: names <prefix><first + k>'),
-            ('first', 0, 'with a count: the first robot number'),
-            ('fleet_rate', 1.0, '/battery_fleet/states per second'))}
+        robots = node.declare_parameter('robots', 1, _any(ROBOTS_DESCRIPTION)).value
+        declared = dict(declare_settings(node, FLEET_SETTINGS), robots=robots)
         self.battery = declare_settings(node, STARTUP_SETTINGS + (TIME_SCALE,),
                                         defaults={'update_rate': FLEET_UPDATE_RATE_HZ})
         self.charging = declare_mode(node)
         self.publisher = read_publisher_settings(node)
         staggered = not _given(node, 'initial_percentage')
-        for name, valid, allowed in (('fleet_rate', is_fleet_rate, FLEET_RATE_ALLOWED),
-                                     ('first', is_first, FIRST_ALLOWED)):
-            if not valid(declared[name]):
-                raise StartupError('parameter %s = %r is invalid: must be %s'
-                                   % (parameter_name(node, name), declared[name], allowed))
         first = declared['first']
         robots = declared['robots']
         if isinstance(robots, str):
@@ -105,8 +96,7 @@ class FleetSettings:
                 raise StartupError('parameter %s = %r is invalid: cannot read it as a YAML list of robots (%s)'
                                    % (parameter_name(node, 'robots'), declared['robots'], error)) from None
         try:
-            self.robots = robot_specs(robots, prefix=declared['prefix'] if isinstance(declared['prefix'], str)
-                                      else '', first=first, config=self.battery['config'],
+            self.robots = robot_specs(robots, prefix=declared['prefix'], first=first, config=self.battery['config'],
                                       initial_percentage=None if staggered else self.battery['initial_percentage'],
                                       charging=self.charging)
         except FleetError as error:
