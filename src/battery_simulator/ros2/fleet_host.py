@@ -185,6 +185,10 @@ class FleetHost:
         self.shared = len(settings.robots) > PARAMETER_SERVICES_UP_TO
         live = host_live_settings(node) if self.shared else {}
         graph_types = GraphTypes(node)
+        # first, before the robots' 27 endpoints each: a process that joins later learns a participant's endpoints in
+        # the order they were made (1000 robots: 27000 before it), and a dashboard reads the fleet from this topic
+        # rather than subscribing to every robot's own once it knows the topic is there
+        self._states_pub = node.create_publisher(BatteryFleetState, FLEET_STATES, 10)
         self.robots = [SharedRobot(spec, settings, robot_params(settings.configs[spec.config], spec.name),
                                    self._store, node, live, graph_types) if self.shared else
                        Robot(spec, settings, robot_params(settings.configs[spec.config], spec.name), self._store,
@@ -192,13 +196,12 @@ class FleetHost:
                        for spec in settings.robots]
         for robot in self.robots:
             robot.front.update()
-        # One timer does everything, at update_rate: each wake-up of the executor rebuilds its wait set over
-        # every robot's entities (most of its cost with a hundred nodes), so the host wakes as seldom as it can.
+        # One timer does everything, at update_rate: the host wakes as seldom as it can (with rclpy's
+        # SingleThreadedExecutor each wake-up rebuilt its wait set over every robot's entities).
         self._period_s = 1.0 / settings.publisher['rate']
         start = time.monotonic()
         count = len(self.robots)
         self._due = [start + self._period_s * k / count for k in range(count)]   # spread over one period
-        self._states_pub = node.create_publisher(BatteryFleetState, FLEET_STATES, 10)
         self._states_period_s = 1.0 / settings.fleet_rate
         self._states_due = start
         self._diagnostics = diagnostics_publisher(node, [robot.status for robot in self.robots])
