@@ -66,8 +66,8 @@ ROBOT_NODE = 'battery_simulator'
 #: them 0.4 s and 119 MB), and a fleet of 250 lean nodes took 27 s and 414 MB to start
 PARAMETER_SERVICES_UP_TO = 100
 FLEET_DIAGNOSTIC_PERIOD_S = 1.0   # a fleet's DiagnosticArray (every robot's status) once a second
-#: the fleet host's model updates (and its one timer) per second: every executor wake-up rebuilds the wait set of
-#: every robot (the host's main cost), so once a second (feedback is due once a second; changes act at once)
+#: the fleet host's model updates (and its one timer) per second: once a second (feedback is due once a second;
+#: changes act at once), which also kept rclpy's SingleThreadedExecutor's wake-ups (a wait set over every entity) few
 FLEET_UPDATE_RATE_HZ = 1.0
 
 
