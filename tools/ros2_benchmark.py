@@ -8,8 +8,12 @@ with every battery_status subscribed (RSS, CPU, launch to every first message, r
 
 Each fleet row: the host's RSS and CPU at steady state (1 Hz) beside a bare rclpy timer publisher measured in the
 same window, launch to every robot's first battery_status (a listener process of its own), /battery_fleet/states'
-rate, SIGINT to exit. --lean-dds: Fast DDS endpoints with histories allocated as used (LEAN_ENDPOINTS).
-    tools/ros2.sh python3 tools/ros2_benchmark.py dashboard   # battery_dashboard, 100 robots, the page open
+rate, SIGINT to exit, and when /battery_fleet/states first held every robot (what the host itself published: the
+listener's own discovery of 27 endpoints a robot, with a subscription per robot, is part of its first figure).
+--lean-dds: every process's Fast DDS endpoints with histories allocated as used (LEAN_ENDPOINTS; the fleet host
+always has them, ros2/fleet_dds.py).
+    tools/ros2.sh python3 tools/ros2_benchmark.py dashboard [N ...]   # battery_dashboard beside a fleet of N (100),
+                                                                      # the page open
 """
 import http.client
 import json
@@ -230,11 +234,13 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
         firsts = [seen['first'][t] - started for t in topics if t in seen['first']]
         states = [at for at, count in seen['states'] if count == n]
         rate = (len(states) - 1) / (states[-1] - states[0]) if len(states) > 2 else float('nan')
+        whole = '%.1f s' % (states[0] - started) if states else 'never'   # every robot's state in one message
         rows.append(('fleet host, %d robots%s' % (n, ', lean DDS endpoints' if lean_dds else ''),
                      '%.0f MB, %.1f %% of a core; ready %.1f s; ended %.2f s after SIGINT' % (
                          memory, cpu[host.pid], ready_s, stop_s),
-                     'every first battery_status %s (%d of %d); fleet states %.2f Hz; bare publisher %.1f %%, %.0f MB'
-                     % ('%.1f s' % max(firsts) if len(firsts) == n else 'not all', len(firsts), n, rate,
+                     'every first battery_status %s (%d of %d), all %d in fleet states %s; fleet states %.2f Hz; '
+                     'bare publisher %.1f %%, %.0f MB'
+                     % ('%.1f s' % max(firsts) if len(firsts) == n else 'not all', len(firsts), n, n, whole, rate,
                         cpu[bare.pid], rss_mb(bare.pid)),
                      '<= 400 MB, <= 40 %, <= 20 s, 1 Hz, <= 2 s' if n == 1000 else ''))
     finally:
@@ -286,15 +292,25 @@ def free_port():
 
 
 def dashboard(rows, n=100):
-    """battery_dashboard beside a fleet of ``n`` at 1 Hz with the overview open in headless Chromium."""
+    """battery_dashboard beside a fleet of ``n`` at 1 Hz with the overview open in headless Chromium: the dashboard
+    is started once the fleet host is ready, and timed to every battery in its API (its cards)."""
     port = free_port()
-    host = start(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=bench'])
-    board = start(['battery_dashboard', '--ros-args', '-p', 'port:=%d' % port])
-    page = None
+    host = subprocess.Popen(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=bench'],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+    threading.Thread(target=lambda: lines.extend(host.stdout), daemon=True).start()
+    board = page = None
     try:
-        deadline = time.monotonic() + 120.0
+        deadline = time.monotonic() + 600.0
+        while not any('battery_fleet ready' in line for line in lines) and host.poll() is None and \
+                time.monotonic() < deadline:
+            time.sleep(0.2)
+        started = time.monotonic()
+        board = start(['battery_dashboard', '--ros-args', '-p', 'port:=%d' % port])
+        deadline = started + 300.0
         while dashboard_batteries(port) < n and time.monotonic() < deadline:
             time.sleep(0.5)
+        cards_s = time.monotonic() - started
         page = subprocess.Popen(['/usr/bin/python3', '-c', OPEN_PAGE, 'http://127.0.0.1:%d/' % port, str(n)],
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                 env=dict(os.environ, PYTHONPATH=''))
@@ -313,7 +329,8 @@ def dashboard(rows, n=100):
         fresh = page.stdout.readline().strip()
         page.wait(30.0)
         rows.append(('battery_dashboard: %d batteries at 1 Hz, the page open (%.0f s)' % (n, CPU_WINDOW_S),
-                     '%.1f %% of a core, %.0f MB' % (cpu[board.pid], memory),
+                     '%.1f %% of a core, %.0f MB; every battery in its API %.1f s after its start' % (
+                         cpu[board.pid], memory, cards_s),
                      'ROS 1 (docs): %.1f %%; %s of %d fresh on the page; fleet host %.1f %%' % (
                          ROS1_DASHBOARD_CPU, fresh, n, cpu[host.pid]),
                      '<= %.1f %% (1.5 x ROS 1)' % (1.5 * ROS1_DASHBOARD_CPU)))
@@ -325,26 +342,29 @@ def dashboard(rows, n=100):
             except subprocess.TimeoutExpired:
                 page.kill()
                 page.wait()
-        stop(board)
+        if board is not None:
+            stop(board)
         stop(host)
 
 
 def main():
     arguments = sys.argv[1:]
     lean_dds = '--lean-dds' in arguments
-    sizes = [int(a) for a in arguments if a.isdigit()] or ([] if 'dashboard' in arguments else [100, 250, 500, 1000])
+    sizes = [int(a) for a in arguments if a.isdigit()]
     rclpy.init()
     rows = []
     if 'dashboard' in arguments:
-        dashboard(rows)
+        for n in sizes or [100]:
+            dashboard(rows, n)
     else:
         one_battery(rows)
-    for n in sizes:
-        fleet(rows, n, lean_dds)
+        for n in sizes or [100, 250, 500, 1000]:
+            fleet(rows, n, lean_dds)
     rclpy.shutdown()
     widths = [max(len(str(r[i])) for r in rows + [('measurement', 'figure', 'beside it', 'target')])
               for i in range(4)]
-    print('\nROS 2 (rclpy %s, Fast DDS on 127.0.0.1, %d cores)' % (os.environ.get('ROS_DISTRO', '?'), os.cpu_count()))
+    print('\nROS 2 (rclpy %s, Fast DDS on 127.0.0.1, %d cores, load average %.1f at the end)' % (
+        os.environ.get('ROS_DISTRO', '?'), os.cpu_count(), os.getloadavg()[0]))
     for row in [('measurement', 'figure', 'beside it', 'target')] + rows:
         print('  '.join('%-*s' % (w, c) for w, c in zip(widths, row)))
 

@@ -87,3 +87,15 @@ def test_a_fleet_over_100_keeps_every_robots_names_and_sets_its_mode_by_set_char
         assert probe.send_goal(client, BatterySim.Goal(charge_state=True)).accepted
     finally:
         assert process.stop() == 0, process.output()[-2000:]
+
+
+def test_the_fleets_states_follow_the_hosts_namespace_as_on_ros1(probe):
+    """core/fleet.py's FLEET_STATES is relative on both ROS versions: a host under -r __ns:=/site publishes
+    /site/battery_fleet/states (ROS 2's was absolute: /battery_fleet/states whatever the namespace)."""
+    process = NodeProcess('battery_fleet', '-r', '__ns:=/site', '-p', 'robots:=2', '-p', 'prefix:=nsfleet')
+    try:
+        fleet = probe.wait_for('/site/battery_fleet/states', BatteryFleetState, lambda m: len(m.names) == 2, 30.0)
+        assert fleet is not None, process.output()[-2000:]
+        assert sorted(fleet.names) == ['nsfleet0', 'nsfleet1']
+    finally:
+        assert process.stop() == 0, process.output()[-2000:]

@@ -9,6 +9,7 @@ fleet.launch always did: 100, 95, 90, ..., wrapping at 20.
 import re
 from dataclasses import dataclass, replace
 
+from battery_simulator.core.node_settings import Setting
 from battery_simulator.core.parameter_rules import is_number
 
 #: a ROS graph name segment: a letter, then letters, digits and underscores
@@ -116,6 +117,10 @@ def robot_params(params, name):
 #: a fleet host's own settings beside the battery and publisher ones, with their rules (both front ends)
 FLEET_RATE_ALLOWED = 'a number in (0, 100] Hz'
 FIRST_ALLOWED = 'a whole number >= 0'
+#: the topic of a host's robots' BatteryStates (BatteryFleetState), relative: in the host's namespace on both ROS
+#: versions (``/battery_fleet/states`` for a host in ``/``; a host under ``-r __ns:=/site`` publishes
+#: ``/site/battery_fleet/states``, as ROS 1's did)
+FLEET_STATES = 'battery_fleet/states'
 
 
 def is_fleet_rate(value):
@@ -126,6 +131,16 @@ def is_fleet_rate(value):
 def is_first(value):
     """Whether ``value`` is a valid ``first`` (the number of a counted fleet's first robot)."""
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+#: the host's own settings (``~robots`` is read by robot_specs: a count or a list); Setting as core/node_settings.py
+ROBOTS_DESCRIPTION = 'a count N, or the path of a YAML list of {name, config, initial_percentage, charging}'
+FLEET_SETTINGS = (
+    Setting('prefix', 'robot', lambda v: isinstance(v, str), 'a string', 'with a count: names <prefix><first + k>',
+            False),
+    Setting('first', 0, lambda v: is_first(v), FIRST_ALLOWED, 'with a count: the first robot number', False),
+    Setting('fleet_rate', 1.0, lambda v: is_fleet_rate(v), FLEET_RATE_ALLOWED, FLEET_STATES + ' per second', False),
+)
 
 
 def robot_configs(robots, load, loaded=None):

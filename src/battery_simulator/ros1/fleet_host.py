@@ -42,8 +42,8 @@ from battery_simulator.ros1.saved_state import FleetStore
 from battery_simulator.ros1.state_publisher import BatteryStatePublisher, publish_at_rate, repeat_at_rate
 from battery_simulator.ros1.workers import ChangeLoop, DiagnosticsLoop, StatusTimer, UpdateLoop
 from battery_simulator.core.config_files import load_yaml
-from battery_simulator.core.fleet import (FIRST_ALLOWED, FLEET_RATE_ALLOWED, FleetError, fleet_states, host_share,
-                                          is_first, is_fleet_rate, robot_configs, robot_params, robot_specs)
+from battery_simulator.core.fleet import (FLEET_SETTINGS, FLEET_STATES, FleetError, fleet_states, host_share,
+                                          robot_configs, robot_params, robot_specs)
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_name, checked_param,
                                            ending_the_node_on_error,
@@ -51,7 +51,6 @@ from battery_simulator.ros1.startup import (StartupError, check_one_battery_per_
                                            wait_for_rosout)
 
 #: every host's robots, on one topic (in the hosts' namespace): the whole fleet in one subscription
-FLEET_STATES = 'battery_fleet/states'
 #: file descriptors one robot holds (rospy: one per topic, service and connection; measured ~13)
 FILES_PER_ROBOT = 16
 FILES_FOR_THE_PROCESS = 64
@@ -70,11 +69,11 @@ def read_settings():
             first, count = host_share(rospy.get_param('~fleet_size'), rospy.get_param('~hosts', 1),
                                       rospy.get_param('~host_index', 0))
         else:
-            first = checked_param('~first', 0, is_first, FIRST_ALLOWED)
+            first = fleet_setting('first')
             count = rospy.get_param('~robots', 1)
         robots = robot_specs(
             count,
-            prefix=checked_param('~prefix', 'robot', lambda v: isinstance(v, str), 'a string'),
+            prefix=fleet_setting('prefix'),
             first=first,
             config=server['params_path'], initial_percentage=None if staggered else server['initial_percentage'],
             charging=bool(server['charging']))
@@ -85,7 +84,13 @@ def read_settings():
     except FleetError as error:
         raise StartupError(str(error)) from None
     return dict(robots=robots, configs=configs, server=server, publisher=publisher,
-                fleet_rate=checked_param('~fleet_rate', 1.0, is_fleet_rate, FLEET_RATE_ALLOWED))
+                fleet_rate=fleet_setting('fleet_rate'))
+
+
+def fleet_setting(name):
+    """The host's private parameter ``~name`` of core's FLEET_SETTINGS, checked by its rule."""
+    setting = next(setting for setting in FLEET_SETTINGS if setting.name == name)
+    return checked_param('~' + name, setting.default, setting.check, setting.allowed)
 
 
 def raise_open_file_limit(robots):

@@ -51,9 +51,21 @@ class VelocityInput:
         return self._node.create_subscription(MESSAGE_CLASSES[self.kind], self._topic,
                                               lambda msg: self._on_twist(twist_of(msg)), self._qos)
 
+    def _resubscribe(self):
+        """The subscription of the type taken, once the old one is gone: an executor that holds the old one (rclpy's
+        EventsExecutor, a fleet host's) destroys it at its next turn, and until then DDS refuses a second type on
+        the name. True once it exists."""
+        try:
+            self._subscription = self._subscribe()
+        except Exception:   # rclpy's RCLError: "existing topic name ... with incompatible type"
+            return False
+        return True
+
     def follow_publishers(self, now=None):
         """Look up the publishers' type (at most every TYPE_CHECK_S) and take it: the new type, or None."""
         now = time.monotonic() if now is None else now
+        if self._subscription is None:
+            return self.kind if self._resubscribe() else None
         if now - self._checked_at < TYPE_CHECK_S:
             return None
         self._checked_at = now
@@ -65,6 +77,6 @@ class VelocityInput:
         if wanted == self.kind:
             return None
         self._node.destroy_subscription(self._subscription)
+        self._subscription = None
         self.kind = wanted
-        self._subscription = self._subscribe()
-        return wanted
+        return wanted if self._resubscribe() else None
