@@ -51,6 +51,7 @@ from battery_simulator.ros2.battery_settings import (STARTUP_SETTINGS, TIME_SCAL
                                                      declare_mode, make_battery, read_publisher_settings)
 from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
 from battery_simulator.ros2.log import RobotLog
+from battery_simulator.ros2.saved_state import NoStore
 from battery_simulator.ros2.battery_claims import BatteryClaim
 from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, ending_quietly,
                                             exit_on_startup_error, explain_parameter_refusals, init, own_node,
@@ -181,7 +182,7 @@ class FleetHost:
         save_period_s = fleet_save_period_s(1.0 if node.get_parameter('use_sim_time').value else
                                             settings.battery['time_scale'])
         self._store = FleetStateFile(settings.battery['state_file'], RobotLog(node.get_logger()).warn,
-                                     period_s=save_period_s) if settings.battery['state_file'] else _NoStore()
+                                     period_s=save_period_s) if settings.battery['state_file'] else NoStore()
         self.shared = len(settings.robots) > PARAMETER_SERVICES_UP_TO
         live = host_live_settings(node) if self.shared else {}
         graph_types = GraphTypes(node)
@@ -249,22 +250,6 @@ class FleetHost:
         finished = [robot.front.finish() for robot in self.robots]
         self._store.write_if_due(force=True)
         return lambda: all(done() for done in finished)
-
-
-class _NoStore:
-    def robot(self, name):
-        return self
-
-    def load(self):
-        return None
-
-    def maybe_save(self, state):
-        pass
-
-    save_now = maybe_save
-
-    def write_if_due(self, force=False):
-        pass
 
 
 def finish(host):

@@ -5,7 +5,7 @@ from battery_simulator.core.state_file import StateFileKeeper
 
 
 class NoStore:
-    """No state file: nothing to resume, nothing kept."""
+    """No state file: nothing to resume, nothing kept (for one battery, or a fleet and each of its robots)."""
 
     where = None
 
@@ -16,6 +16,13 @@ class NoStore:
         pass
 
     def save_now(self, state):
+        pass
+
+    def robot(self, name):
+        """A fleet's store of one robot (core/state_file.py FleetStateFile.robot): nothing either."""
+        return self
+
+    def write_if_due(self, force=False):
         pass
 
 
