@@ -31,6 +31,7 @@ FRONT_END_ONLY = {
         'rcl_args': "rcl's --ros-args errors as one line",
         'respawn': "the launch files' respawn less a start-up failure (roslaunch's respawn has no such gap)",
         'demo': "battery_demo: the demo's nodes in one process (ROS 1's demo is demo.launch)",
+        'events_executor': "rclpy's EventsExecutor for a fleet host, Kilted's workarounds (rospy has no executor)",
         'fleet_dds': "the fleet host's Fast DDS profile: its own endpoints unmatched, histories as used (ROS 1 has no DDS)",
     },
 }

@@ -44,6 +44,14 @@ def test_fleet_of_ten_in_one_process(probe):
         assert set_state(probe, '/fleetbot5', 99.5).success
         result = probe.result(probe.send_goal(client, BatterySim.Goal(charge_state=True)), 60.0)
         assert result.result.battery_status == 'Full'
+        # Part 2's live time_scale on every robot (ROS 1: /<name>/BatterySimServer); the host's own time_scale and
+        # charging are the robots' start-up values: refused with a reason, never taken and ignored
+        assert probe.set_parameter('/fleetbot2/battery_simulator', 'time_scale', 100.0).successful
+        refused = probe.set_parameter('/fleetbot2/battery_simulator', 'time_scale', -1.0)
+        assert not refused.successful and 'time_scale' in refused.reason, refused
+        for name, value in (('time_scale', -1.0), ('time_scale', 100.0), ('time_scale', 'abc'), ('charging', True)):
+            refused = probe.set_parameter('/battery_fleet', name, value)
+            assert not refused.successful and name in refused.reason, (name, value, refused)
         assert len(process.output().splitlines()) < 40, 'a fleet does not log per level'
     finally:
         assert process.stop() == 0, process.output()
@@ -85,6 +93,10 @@ def test_a_fleet_over_100_keeps_every_robots_names_and_sets_its_mode_by_set_char
             probe.node.destroy_publisher(publisher)
         client = probe.action_client(BatterySim, last + '/battery_simulator')
         assert probe.send_goal(client, BatterySim.Goal(charge_state=True)).accepted
+        # no node per robot: the host's time_scale is every robot's, checked (all or none)
+        refused = probe.set_parameter('/battery_fleet', 'time_scale', -1.0)
+        assert not refused.successful and 'time_scale' in refused.reason, refused
+        assert probe.set_parameter('/battery_fleet', 'time_scale', 2.0).successful
     finally:
         assert process.stop() == 0, process.output()[-2000:]
 

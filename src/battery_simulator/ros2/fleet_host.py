@@ -25,17 +25,11 @@ whole fleet at ``fleet_rate`` Hz.
     100, 95, ... 20), ``charging``, and battery_state_pub's ``rate``, ``frame_id``, ``stale_timeout``,
     ``low_percentage``, ``critical_percentage``, ``hysteresis``: for every robot that does not set its own
 """
-import sys
 import time
 
 import yaml
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import SingleThreadedExecutor
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
-try:
-    from rclpy.experimental import EventsExecutor
-except ImportError:   # rclpy before Jazzy
-    EventsExecutor = None
 
 from battery_simulator.core.battery import BatteryError
 from battery_simulator.core.config_files import load_yaml
@@ -44,18 +38,20 @@ from battery_simulator.core.fleet import (FLEET_SETTINGS, FLEET_STATES, ROBOTS_D
 from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_s
 from battery_simulator.msg import BatteryFleetState
+from battery_simulator.core import ros_names
 from battery_simulator.core.ros_names import STATUS_NODE
 from battery_simulator.ros2 import prediction_service
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2.battery_settings import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
                                                      declare_mode, make_battery, read_publisher_settings)
+from battery_simulator.ros2.events_executor import fleet_executor
 from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
 from battery_simulator.ros2.log import RobotLog
 from battery_simulator.ros2.saved_state import NoStore
 from battery_simulator.ros2.battery_claims import BatteryClaim
-from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, ending_quietly,
-                                            exit_on_startup_error, explain_parameter_refusals, init, own_node,
-                                            parameter_name, run, steady_clock)
+from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, descriptor,
+                                            ending_quietly, exit_on_startup_error, explain_parameter_refusals, init,
+                                            own_node, parameter_name, run, steady_clock)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher, diagnostics_publisher
 from battery_simulator.ros2.velocity import GraphTypes
 
@@ -128,6 +124,7 @@ class Robot:
         battery_settings = dict(settings.battery, initial_percentage=spec.initial_percentage)
         self.battery = make_battery(self.node, battery_settings, params, charging, self.log)
         declare_live(self.node, self.battery)
+        self.node.declare_parameter(TIME_SCALE.name, self.battery.time_scale, descriptor(TIME_SCALE))   # live
         self.store = store.robot(spec.name)
         self.resumed = resume_battery(self.battery, self.store.load(), 'the fleet state file', self.log)
         self.status = BatteryStatePublisher(self.node, '', child_namespace(self.node.get_namespace(), STATUS_NODE)
@@ -197,6 +194,7 @@ class FleetHost:
                        for spec in settings.robots]
         for robot in self.robots:
             robot.front.update()
+        node.add_on_set_parameters_callback(self._on_set_parameters)
         # One timer does everything, at update_rate: the host wakes as seldom as it can (with rclpy's
         # SingleThreadedExecutor each wake-up rebuilt its wait set over every robot's entities).
         self._period_s = 1.0 / settings.publisher['rate']
@@ -211,6 +209,22 @@ class FleetHost:
         if settings.battery['state_file'] and save_period_s < 1.0 / settings.battery['update_rate']:
             # an update (300 s of battery at x300, 1 Hz) is more than a resume after SIGKILL may lose
             node.create_timer(save_period_s, self._save, clock=steady_clock())
+
+    def _on_set_parameters(self, parameters):
+        """The host's own time_scale and charging: with a node per robot each robot has its own (the host's are their
+        start-up values); a shared-node fleet takes a time_scale for every robot (checked, all or none)."""
+        for parameter in parameters:
+            if parameter.name == ros_names.CHARGING_PARAM or (parameter.name == TIME_SCALE.name and not self.shared):
+                return SetParametersResult(successful=False, reason=(
+                    "%s of %s is every robot's start-up value: set it on a robot (%s/battery_simulator %s%s)" % (
+                        parameter.name, self._node.get_fully_qualified_name(), self.robots[0].name, parameter.name,
+                        ', or call its set_charging' if parameter.name == ros_names.CHARGING_PARAM else '')))
+            if parameter.name == TIME_SCALE.name:
+                reasons = [robot.front.on_set_parameters([parameter]) for robot in self.robots]
+                refused = next((reason for reason in reasons if not reason.successful), None)
+                if refused is not None:
+                    return refused
+        return SetParametersResult(successful=True)
 
     def _save(self):
         """Keep every battery's state as it is now (stepped to now) and write the state file."""
@@ -256,62 +270,6 @@ def finish(host):
     finished = host.finish()
     prediction_service.stop_workers()
     return finished
-
-
-def fleet_executor():
-    """rclpy's EventsExecutor (C++, event driven) where rclpy has it: the SingleThreadedExecutor rebuilds its wait set
-    over every entity at each wake-up (27 a robot; 171 ms a wake-up at 250 robots), which took a fleet of 1000 to a
-    quarter of a core doing nothing and held a stop signal for seconds. Measured with 300 robots' endpoints and a 1 Hz
-    timer: 23 % of a core spinning with the SingleThreadedExecutor, 1 % with the EventsExecutor."""
-    if EventsExecutor is None:
-        return SingleThreadedExecutor()
-    sys.stdout = _WithoutTimerWarnings(sys.stdout)
-    return _EventsExecutor(EventsExecutor())
-
-
-#: what Kilted's EventsExecutor prints (Python's print, on stdout) for every timer of one clock past its 8th: each
-#: robot's action server holds a timer (rcl_action's goal expiry) on the host node's clock, so 1000 robots would
-#: print 2000 lines that say nothing to a user (it manages them in one ordered map: no cost per wake-up)
-TIMER_WARNINGS = ('Warning, the number of timers associated with this clock is large.',
-                  'Management of this number of timers may be inefficient.')
-
-
-class _WithoutTimerWarnings:
-    """sys.stdout without TIMER_WARNINGS (and the line ends printed after them)."""
-
-    def __init__(self, stream):
-        self._stream = stream
-        self._dropped = False
-
-    def __getattr__(self, name):
-        return getattr(self._stream, name)
-
-    def write(self, text):
-        if text in TIMER_WARNINGS or (self._dropped and text == '\n'):
-            self._dropped = text != '\n'
-            return len(text)
-        self._dropped = False
-        return self._stream.write(text)
-
-
-class _EventsExecutor:
-    """The EventsExecutor as ``run`` uses an executor. Kilted's ``spin_until_future_complete(future)`` without a
-    timeout runs no callback at all (no timer fires, a Future set from another thread never ends it: measured);
-    with one it works, so it is given one, again and again until the future is done."""
-
-    SPIN_SLICE_S = 0.1   # how late a stop signal may be seen; a wake-up of the EventsExecutor costs next to nothing
-
-    def __init__(self, executor):
-        self._executor = executor
-
-    def __getattr__(self, name):
-        return getattr(self._executor, name)
-
-    def spin_until_future_complete(self, future, timeout_sec=None):
-        if timeout_sec is not None:
-            return self._executor.spin_until_future_complete(future, timeout_sec=timeout_sec)
-        while not future.done():
-            self._executor.spin_until_future_complete(future, timeout_sec=self.SPIN_SLICE_S)
 
 
 def main(args=None):
