@@ -21,7 +21,9 @@ def is_mode_value(value):
     return value is not None and not isinstance(value, str) and value in (True, False, 0, 1)
 
 
-Setting = namedtuple('Setting', 'name default check allowed description live')
+#: ``bounds``: (lowest, highest) a number may be, for a ROS 2 descriptor's floating_point_range (None: no range to
+#: state; ``check`` stays the rule, an open end included)
+Setting = namedtuple('Setting', 'name default check allowed description live bounds', defaults=(None,))
 
 
 def _fraction(value):
@@ -48,10 +50,10 @@ BATTERY_SETTINGS = (
     Setting('time_scale', 22.0, lambda v: is_number(v) and 0 < v <= MAX_TIME_SCALE,
             'a number in (0, %g] (one update of a faster battery would span more than a quarter of a discharge)'
             % MAX_TIME_SCALE,
-            'simulated seconds per wall second (ignored under use_sim_time)', True),
-    Setting('update_rate', 10.0, _rate, 'a number in (0, 1000] Hz', 'model updates per second', False),
+            'simulated seconds per wall second (ignored under use_sim_time)', True, (0.0, MAX_TIME_SCALE)),
+    Setting('update_rate', 10.0, _rate, 'a number in (0, 1000] Hz', 'model updates per second', False, (0.0, 1000.0)),
     Setting('initial_percentage', 100.0, lambda v: is_number(v) and 0 <= v <= 100, 'a number in [0, 100]',
-            'charge at start, %', False),
+            'charge at start, %', False, (0.0, 100.0)),
     Setting('charging', False, is_mode_value, MODE_ALLOWED,
             'initial mode: true charges, false discharges', False),
     Setting('state_file', '', lambda v: isinstance(v, str), 'a file path (or empty)',
@@ -80,15 +82,17 @@ def _topic_or_empty(value):
 
 #: battery_state_pub's settings
 PUBLISHER_SETTINGS = (
-    Setting('rate', 1.0, _rate, 'a number in (0, 1000] Hz', 'battery_status publications per second', False),
+    Setting('rate', 1.0, _rate, 'a number in (0, 1000] Hz', 'battery_status publications per second', False,
+            (0.0, 1000.0)),
     Setting('frame_id', 'battery', lambda v: isinstance(v, str), 'a string', 'header.frame_id', False),
     Setting('stale_timeout', 3.0, lambda v: is_number(v) and v > 0, 'a number > 0 s',
             'warn after this long without an update from the battery, s', False),
-    Setting('low_percentage', 0.20, _fraction, 'a fraction in [0, 1]', 'battery_low below this (0-1)', False),
+    Setting('low_percentage', 0.20, _fraction, 'a fraction in [0, 1]', 'battery_low below this (0-1)', False,
+            (0.0, 1.0)),
     Setting('critical_percentage', 0.05, _fraction, 'a fraction in [0, 1]',
-            'battery_critical below this (0-1, at most low_percentage)', False),
+            'battery_critical below this (0-1, at most low_percentage)', False, (0.0, 1.0)),
     Setting('hysteresis', 0.05, _fraction, 'a fraction in [0, 1]',
-            'an event clears above its threshold plus this (0-1)', False),
+            'an event clears above its threshold plus this (0-1)', False, (0.0, 1.0)),
     Setting('battery_state_topic', 'battery_state', _topic_or_empty, 'a topic name (or empty: none)',
             'the same BatteryState also on this topic, relative to the robot (opennav_docking reads '
             'battery_state; empty: battery_status only)', False),

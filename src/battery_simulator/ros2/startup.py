@@ -18,7 +18,8 @@ import time
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.impl.implementation_singleton import rclpy_implementation
-from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -63,9 +64,12 @@ class StartupError(ValueError):
 def descriptor(setting, read_only=None):
     """A ParameterDescriptor for a core Setting: any type is taken (and checked by its rule, so a
     bad value gets our one line rather than rclpy's type error), read-only unless it is live."""
+    ranges = [] if setting.bounds is None else [FloatingPointRange(from_value=float(setting.bounds[0]),
+                                                                   to_value=float(setting.bounds[1]), step=0.0)]
     return ParameterDescriptor(
         description=setting.description, additional_constraints='must be ' + setting.allowed,
-        read_only=(not setting.live) if read_only is None else read_only, dynamic_typing=True)
+        read_only=(not setting.live) if read_only is None else read_only, dynamic_typing=True,
+        floating_point_range=ranges)
 
 
 def declare_settings(node, settings, defaults=None):
@@ -74,7 +78,11 @@ def declare_settings(node, settings, defaults=None):
     values = {}
     for setting in settings:
         default = (defaults or {}).get(setting.name, setting.default)
-        value = node.declare_parameter(setting.name, default, descriptor(setting)).value
+        try:
+            value = node.declare_parameter(setting.name, default, descriptor(setting)).value
+        except InvalidParameterValueException:   # outside the descriptor's range: the rule's one line, not rclpy's
+            raise StartupError(refusal(parameter_name(node, setting.name), given_value(node, setting.name),
+                                       'must be ' + setting.allowed)) from None
         if isinstance(setting.default, (int, float)) and not isinstance(setting.default, bool):
             value = number_from_text(value)
         if isinstance(setting.default, bool) and value in (0, 1) and not isinstance(value, bool):
@@ -124,10 +132,21 @@ def parameter_refusal(node, parameters):
         if described.read_only:
             return '%s of %s is read at start only: start the node again with -p %s:=VALUE' % (
                 parameter.name, node.get_fully_qualified_name(), parameter.name)
+        value = parameter.value
+        if described.floating_point_range and isinstance(value, float) and not (
+                described.floating_point_range[0].from_value <= value <= described.floating_point_range[0].to_value):
+            return '%s; keeping %s' % (refusal(parameter.name, value, described.additional_constraints),
+                                       node.get_parameter(parameter.name).value)
         if not described.dynamic_typing and parameter.type_.value != described.type and \
                 described.type in TYPE_WORDS:
             return refusal(parameter.name, parameter.value, 'must be ' + TYPE_WORDS[described.type])
     return None
+
+
+def given_value(node, name):
+    """The value ``name`` was given on the command line (rclpy keeps no public view of its overrides)."""
+    override = node._parameter_overrides.get(name)
+    return None if override is None else override.value
 
 
 def parameter_name(node, name):
