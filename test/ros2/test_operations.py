@@ -4,6 +4,8 @@ test/ros1/operations.test). One battery_sim in /sim (conftest.py's sim); every w
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
@@ -106,6 +108,18 @@ def test_faults(sim, probe):
     fault('sensor_dropout', False)
     assert status_after(probe, '/sim', lambda m: True, 3.0) is not None, 'battery_status back after the dropout'
     assert probe.call(Trigger, ns + 'reset', Trigger.Request()).success
+
+
+def test_descriptors_state_type_range_and_description(sim, probe):
+    """Part 4: parameters declared with descriptors (type, range, description); a value out of the range is
+    refused with the package's reason, the old value kept."""
+    described = probe.call(DescribeParameters, '/sim/battery_simulator/describe_parameters',
+                           DescribeParameters.Request(names=['time_scale', 'initial_percentage'])).descriptors
+    for descriptor, (low, high) in zip(described, ((0.0, 10000.0), (0.0, 100.0))):
+        assert descriptor.description and descriptor.type == ParameterType.PARAMETER_DOUBLE, descriptor
+        assert [(r.from_value, r.to_value) for r in descriptor.floating_point_range] == [(low, high)], descriptor
+    refused = probe.set_parameter('/sim/battery_simulator', 'time_scale', 20000.0)
+    assert not refused.successful and 'time_scale' in refused.reason and 'keeping' in refused.reason, refused
 
 
 def test_live_values_refused_with_a_reason(sim, probe):
