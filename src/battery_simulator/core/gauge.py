@@ -63,6 +63,11 @@ HOLD_BEFORE_FULL = 0.99
 class CoulombCounter:
     """A coulomb-counting gauge (the config's ``gauge: {model: coulomb_counter, ...}``)."""
 
+    # slots: a fleet host keeps hundreds of gauges and steps each ten times a second (attributes in slots are
+    # read without a dictionary, and the gauge's state stays together in memory)
+    __slots__ = ('current_offset_a', 'current_gain_error', 'capacity_error', 'deadband_a', 'recalibrate_at_full',
+                 'recalibrate_at_empty', 'capacity_as', 'soc')
+
     def __init__(self, config, true_capacity_ah, true_soc):
         """``true_capacity_ah``: the pack's capacity at start (aged as configured), which the gauge believes
         ``capacity_error`` wrong; ``true_soc``: its state of charge then, which it believes ``initial_error``
