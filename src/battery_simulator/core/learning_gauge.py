@@ -44,6 +44,7 @@ from collections import namedtuple
 
 from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, LEARNING_DEFAULTS, LOGGED_CORRECTION,
                                          OCV_REST, CoulombCounter)
+from battery_simulator.core.parameter_rules import is_number
 
 KELVIN = 273.15
 #: the cut-off's correction (not one of EVENT_KINDS: the truth's cut-off, not the gauge's rule)
@@ -213,6 +214,27 @@ class LearningGauge(CoulombCounter):
     @property
     def charge_ah(self):
         return self.reading()[1]
+
+    def save(self, state):
+        state['gauge_soc'] = self.soc
+        state['gauge_capacity_ah'] = self.capacity_as / 3600.0
+        state['gauge_learned'] = self.learned
+        state['gauge_zero_locked'] = self.zero_locked
+        state['gauge_full'] = self.full
+
+    def restore(self, saved):
+        """As a real gauge resumes from its flash: its state of charge, the full capacity it learned (a
+        positive number), whether it learned it, its zero lock and its end of charge (booleans); a value
+        missing or of the wrong kind leaves that one as the gauge started."""
+        super().restore(saved)
+        capacity_ah = saved.get('gauge_capacity_ah')
+        if is_number(capacity_ah) and capacity_ah > 0.0:
+            self.capacity_as = float(capacity_ah) * 3600.0
+        for key, name in (('gauge_learned', 'learned'), ('gauge_zero_locked', 'zero_locked'), ('gauge_full', 'full')):
+            if isinstance(saved.get(key), bool):
+                setattr(self, name, saved[key])
+        self._unusable_for = None   # for the capacity and state of charge resumed
+        self._shown = None
 
     def restart(self):
         self._rest_s, self._since_reading_s, self._last_cell_v, self._taper_s = 0.0, None, None, 0.0
