@@ -105,8 +105,7 @@ class CoulombCounter:
     def after_step(self, model, charge_as, dt_s, status_before):
         """The model has stepped ``dt_s`` and the pack took ``charge_as`` (A*s, pack): count it, and
         recalibrate where the pack's status changed to Full (the charge's end) or Empty (the cut-off)."""
-        if dt_s > 0.0:
-            self.count(charge_as, dt_s)
+        self.count(charge_as, dt_s)   # (nothing for a step of 0 s)
         status = model.status
         if status is not status_before:
             if status.name == 'FULL':
