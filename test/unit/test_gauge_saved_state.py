@@ -172,3 +172,12 @@ def test_a_battery_resumes_its_gauge_through_a_state_file_and_a_fleets(tmp_path)
         assert resumed.model.gauge.learned
         assert resumed.model.gauge.capacity_ah == pytest.approx(battery.model.gauge.capacity_ah, rel=1e-12)
         assert resumed.record().gauge.full_capacity_ah == pytest.approx(battery.record().gauge.full_capacity_ah)
+
+
+@pytest.mark.parametrize('gauge_soc, resumed', [(0.0, 0.0), (1.0, 1.0), (1.5, 0.6), (-0.1, 0.6)])
+def test_a_saved_gauge_soc_is_taken_from_0_to_1_and_else_the_gauge_starts_at_the_truth(gauge_soc, resumed):
+    counter = from_mapping({'preset': PACK, 'gauge': {'model': 'coulomb_counter'}})
+    saved = dict(make_model(counter, 0.6, Mode.IDLE).export_state(), gauge_soc=gauge_soc)
+    model = make_model(counter, 0.3, Mode.IDLE)
+    model.restore_state(saved)
+    assert model.gauge.soc == pytest.approx(resumed, abs=1e-12)
