@@ -353,3 +353,20 @@ def test_the_string_charge_ends_when_any_groups_taper_ended_whichever_group_allo
     else:
         assert current == 1.0 and pack.status is Status.CHARGING
         assert [g.cell_current_a for g in pack.groups] == [1.0, 1.0]
+
+
+def test_the_spreads_draw_is_centred_on_the_nominal_group_and_clipped_at_3_sigma():
+    """group_factors draws each factor as 1 + spread x N(0, 1) clipped to +-3 sigma: over 4000 groups the
+    draws (factor - 1) / spread have a mean within 0.05 of 0 and a standard deviation within 0.05 of 1 (a
+    draw centred on 1 sigma would give a pack whose groups are all larger than the config says)."""
+    import statistics
+    from types import SimpleNamespace
+
+    from battery_simulator.core.pack import SPREAD_SIGMAS, group_factors
+    params = SimpleNamespace(groups=(), spread_seed=3, capacity_spread=0.05, resistance_spread=0.1, cells_series=4000)
+    factors = group_factors(params)
+    for column, spread in ((0, 0.05), (1, 0.1)):
+        draws = [(f[column] - 1.0) / spread for f in factors]
+        assert abs(statistics.fmean(draws)) < 0.05 and abs(statistics.pstdev(draws) - 1.0) < 0.05
+        assert max(abs(d) for d in draws) <= SPREAD_SIGMAS + 1e-12
+    assert all(f[2] == 0.0 for f in factors)
