@@ -87,3 +87,31 @@ def test_an_explicit_ideal_gauge_is_none_a_counter_otherwise():
     from battery_simulator.core.gauge_models import make_gauge
     assert make_gauge({'model': 'ideal'}, 2.5, 0.5) is None and make_gauge(None, 2.5, 0.5) is None
     assert isinstance(make_gauge({'model': 'coulomb_counter'}, 2.5, 0.5), CoulombCounter)
+
+
+def counter_pack(soc):
+    from battery_simulator.core.battery_states import Mode
+    from battery_simulator.core.config_files import from_mapping
+    from battery_simulator.core.pack import make_model
+    return make_model(from_mapping({'preset': 'lg_hg2_3s1p', 'gauge': {'model': 'coulomb_counter'}}), soc, Mode.IDLE)
+
+
+def test_a_model_stepped_in_half_seconds_counts_every_step():
+    """The model's steps reach the count (after_step) whatever their length: 600 steps of 0.5 s take 4.5 %
+    of the pack, and the counter (no error) moves with the truth (to its ageing: 2e-7)."""
+    from battery_simulator.core.battery_states import Mode
+    model = counter_pack(0.6)
+    model.set_mode(Mode.DISCHARGE)
+    for _ in range(600):
+        model.step(0.5)
+    assert model.state_of_charge < 0.6 - 0.03
+    assert model.gauge.soc == pytest.approx(model.state_of_charge, abs=1e-5)
+
+
+def test_a_cut_off_other_than_the_voltage_does_not_snap_the_counter_to_0():
+    """A discharge beyond the pack's maximum current cuts it off (EMPTY, over-current) at 60 %: the counter keeps
+    60 %; only the cut-off voltage is its empty (then 0 %)."""
+    model = counter_pack(0.6)
+    model.step(1.0, current_a=-2.0 * model.params.max_discharge_current_a)
+    assert model.status.name == 'EMPTY' and model.cut_off.name == 'OVER_CURRENT'
+    assert model.gauge.soc == pytest.approx(0.6, abs=1e-3)

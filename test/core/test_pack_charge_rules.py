@@ -330,3 +330,43 @@ def test_a_power_beyond_what_the_pack_can_deliver_cuts_it_off():
     pack = make_model(two_groups([{}, {}]), 0.8, mode=Mode.IDLE)
     pack.step(1.0, power_w=-1e5)
     assert (pack.status, pack.cut_off, pack.snapshot().current_a) == (Status.EMPTY, CutOff.POWER_LIMIT, 0.0)
+
+
+@pytest.mark.parametrize('tries, ends', [
+    ([(1.0, False), (1.2, True)], True),     # the group whose taper ended is not the one allowing least
+    ([(1.2, True), (1.0, False)], True),
+    ([(0.0, False), (1.2, False)], True),    # a group that allows nothing (a full one) ends the string's charge
+    ([(1.0, False), (1.2, False)], False),   # none ended: the least current flows in every group
+])
+def test_the_string_charge_ends_when_any_groups_taper_ended_whichever_group_allows_least(tries, ends):
+    """The general path (every group tried): a taper ended in ANY group ends the charge (FULL, 0 A), not only
+    in the group that allows the least current; else every group carries the least current. Each group's
+    try is given (its current, its taper ended); its state after the try is its state now."""
+    pack = make_model(two_groups([{}, {}], charger_holds_full=False), 0.9, mode=Mode.CHARGE)
+    outcomes = {index: (current, pack.groups[index]._state(), ended) for index, (current, ended) in enumerate(tries)}
+    pack._try = lambda index, dt_s, demand: outcomes[index]
+    pack._voltages = [g.cell_voltage_v for g in pack.groups]
+    current = pack._charge_tried(1.0, 1.5)
+    if ends:
+        assert current == 0.0 and pack.status is Status.FULL
+        assert [g.cell_current_a for g in pack.groups] == [0.0, 0.0]
+    else:
+        assert current == 1.0 and pack.status is Status.CHARGING
+        assert [g.cell_current_a for g in pack.groups] == [1.0, 1.0]
+
+
+def test_the_spreads_draw_is_centred_on_the_nominal_group_and_clipped_at_3_sigma():
+    """group_factors draws each factor as 1 + spread x N(0, 1) clipped to +-3 sigma: over 4000 groups the
+    draws (factor - 1) / spread have a mean within 0.05 of 0 and a standard deviation within 0.05 of 1 (a
+    draw centred on 1 sigma would give a pack whose groups are all larger than the config says)."""
+    import statistics
+    from types import SimpleNamespace
+
+    from battery_simulator.core.pack import SPREAD_SIGMAS, group_factors
+    params = SimpleNamespace(groups=(), spread_seed=3, capacity_spread=0.05, resistance_spread=0.1, cells_series=4000)
+    factors = group_factors(params)
+    for column, spread in ((0, 0.05), (1, 0.1)):
+        draws = [(f[column] - 1.0) / spread for f in factors]
+        assert abs(statistics.fmean(draws)) < 0.05 and abs(statistics.pstdev(draws) - 1.0) < 0.05
+        assert max(abs(d) for d in draws) <= SPREAD_SIGMAS + 1e-12
+    assert all(f[2] == 0.0 for f in factors)

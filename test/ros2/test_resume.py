@@ -6,6 +6,8 @@ import time
 
 from sensor_msgs.msg import BatteryState
 
+import pytest
+
 from ros2_probe import NodeProcess, set_state
 
 
@@ -38,3 +40,33 @@ def test_resume_after_sigkill(probe, tmp_path):
         assert 'resumed from' in again.output()
     finally:
         again.stop()
+
+
+def test_a_restart_resumes_the_learning_gauges_learned_capacity(probe, tmp_path):
+    """Issue 43: the state file carries what the gauge learned (a real gauge's flash). A state saved with a
+    learned capacity 20 % below the configured belief: battery_status' capacity (the gauge's full charge
+    capacity) is the learned one after the start, and the file written at the stop still holds it."""
+    from battery_simulator.core.battery_states import Mode
+    from battery_simulator.core.config_files import from_mapping
+    from battery_simulator.core.pack import make_model
+    config = tmp_path / 'learning.yaml'
+    config.write_text('preset: lg_hg2_3s1p\ngauge: {model: learning}\n', encoding='utf-8')
+    model = make_model(from_mapping({'preset': 'lg_hg2_3s1p', 'gauge': {'model': 'learning'}}), 0.6, Mode.IDLE)
+    configured_ah = model.gauge_reading()[2]
+    model.gauge.capacity_as *= 0.8
+    model.gauge.learned = True
+    model.step(0.0)
+    state_file = tmp_path / 'battery.json'
+    state_file.write_text(json.dumps(model.export_state()), encoding='utf-8')
+    process = NodeProcess('battery_sim', '-r', '__ns:=/learned', '-p', 'config:=' + str(config),
+                          '-p', 'state_file:=' + str(state_file), '-p', 'time_scale:=1.0')
+    try:
+        msg = probe.wait_for('/learned/battery_status', BatteryState, timeout_s=20.0)
+        assert msg is not None, process.output()
+        # (the full charge capacity at the start's load: a few % below the rest's; the fresh belief: 25 % above)
+        assert msg.capacity == pytest.approx(0.8 * configured_ah, rel=0.05), (msg.capacity, configured_ah)
+    finally:
+        assert process.stop() == 0, process.output()
+    saved = json.loads(state_file.read_text(encoding='utf-8'))
+    assert saved['gauge_learned'] is True
+    assert saved['gauge_capacity_ah'] == pytest.approx(model.gauge.capacity_ah, rel=1e-9)

@@ -26,6 +26,7 @@ import math
 from battery_simulator.core.battery_parameters import BatteryParameters
 from battery_simulator.core.battery_states import CutOff, Health, Mode, Snapshot, Status
 from battery_simulator.core.cell_tables import OcvCurve, ResistanceTable
+from battery_simulator.core.gauge import SAVED_KEYS as GAUGE_SAVED_KEYS
 from battery_simulator.core.gauge_models import make_gauge
 from battery_simulator.core.parameter_rules import is_number
 
@@ -41,8 +42,8 @@ PROTECTION_HYSTERESIS_K = 5.0
 #: saved-state keys added with the fast RC pair and the OCV hysteresis (issue 25),
 #: with the values a state saved before them resumes with
 SINCE_TWO_RC = {'fast_rc_voltage_v': 0.0, 'hysteresis': -1.0}
-#: saved-state keys only some packs have: the gauge's belief, the groups' own states
-OPTIONAL_SAVED = ('gauge_soc', 'groups')
+#: saved-state keys only some packs have: the gauge's (core/gauge.py), the groups' own states
+OPTIONAL_SAVED = GAUGE_SAVED_KEYS + ('groups',)
 
 
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
@@ -181,7 +182,7 @@ class BatteryModel:
                  'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
                  'state_of_health': self.state_of_health}
         if self.gauge is not None:
-            state['gauge_soc'] = self.gauge.soc
+            self.gauge.save(state)
         return state
 
     def restore_state(self, saved):
@@ -206,8 +207,8 @@ class BatteryModel:
         self.fast_rc_voltage_v = float(values['fast_rc_voltage_v'])
         self.hysteresis = float(values['hysteresis'])
         self.discharged_ah = float(values['discharged_ah'])
-        if self.gauge is not None and is_number(optional.get('gauge_soc')) and 0.0 <= optional['gauge_soc'] <= 1.0:
-            self.gauge.soc = float(optional['gauge_soc'])   # else the gauge starts at the truth
+        if self.gauge is not None:
+            self.gauge.restore(optional)   # what it kept; the rest as it starts (at the truth)
         self._restore_groups(optional.get('groups'))
         self._settle_status()
         self.step(0.0)

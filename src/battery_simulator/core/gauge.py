@@ -17,6 +17,7 @@ current within it counts as none, so that a sensor's offset does not move the ga
 flows (a pack cut off, or full on its charger). Its default sits just above the sensor's offset:
 ``|current_offset_a|`` + DEFAULT_DEADBAND_A.
 """
+from battery_simulator.core.parameter_rules import is_number
 
 #: the keys of ``gauge: {model: learning, ...}`` besides the counter's, with their defaults (None: from
 #: the pack: relax_current_a C/20, taper_current_a taper_current_factor x the termination current)
@@ -51,6 +52,11 @@ EVENT_KINDS = (OCV_REST, CAPACITY_LEARNED, END_OF_CHARGE)
 LOGGED_CORRECTION = 1.0
 #: the deadband above the sensor's offset when the config gives none, A (a few mA, as gauges ship)
 DEFAULT_DEADBAND_A = 0.005
+#: what a gauge keeps across a restart (a real gauge's flash) in the model's saved state (core/battery_model.py's
+#: export_state, the state_file): its belief of the state of charge; a learning gauge also its learned full
+#: capacity (Ah, pack), whether it has learned it, its zero lock and whether it has seen its end of charge.
+#: A state saved without them (an older file, another gauge) resumes those as configured.
+SAVED_KEYS = ('gauge_soc', 'gauge_capacity_ah', 'gauge_learned', 'gauge_zero_locked', 'gauge_full')
 
 
 #: a gauge that recalibrates at full counts up to this and no further: it shows 100 % when the charge
@@ -62,6 +68,11 @@ HOLD_BEFORE_FULL = 0.99
 
 class CoulombCounter:
     """A coulomb-counting gauge (the config's ``gauge: {model: coulomb_counter, ...}``)."""
+
+    # slots: a fleet host keeps hundreds of gauges and steps each ten times a second (attributes in slots are
+    # read without a dictionary, and the gauge's state stays together in memory)
+    __slots__ = ('current_offset_a', 'current_gain_error', 'capacity_error', 'deadband_a', 'recalibrate_at_full',
+                 'recalibrate_at_empty', 'capacity_as', 'soc')
 
     def __init__(self, config, true_capacity_ah, true_soc):
         """``true_capacity_ah``: the pack's capacity at start (aged as configured), which the gauge believes
@@ -94,8 +105,7 @@ class CoulombCounter:
     def after_step(self, model, charge_as, dt_s, status_before):
         """The model has stepped ``dt_s`` and the pack took ``charge_as`` (A*s, pack): count it, and
         recalibrate where the pack's status changed to Full (the charge's end) or Empty (the cut-off)."""
-        if dt_s > 0.0:
-            self.count(charge_as, dt_s)
+        self.count(charge_as, dt_s)   # (nothing for a step of 0 s)
         status = model.status
         if status is not status_before:
             if status.name == 'FULL':
@@ -106,6 +116,17 @@ class CoulombCounter:
     def reading(self):
         """(percentage, charge Ah, capacity Ah) as the gauge reports them."""
         return 100.0 * self.soc, self.charge_ah, self.capacity_ah
+
+    def save(self, state):
+        """Add what survives a restart to the model's saved ``state`` (SAVED_KEYS)."""
+        state['gauge_soc'] = self.soc
+
+    def restore(self, saved):
+        """Take back what save() kept, from the model's saved state; a value missing or out of range leaves
+        the gauge as it started (the truth, or the configured belief)."""
+        soc = saved.get('gauge_soc')
+        if is_number(soc) and 0.0 <= soc <= 1.0:
+            self.soc = float(soc)
 
     def restart(self):
         """set_state moved the pack: a gauge that watches rests and tapers starts watching anew."""
@@ -137,3 +158,4 @@ class CoulombCounter:
     @property
     def capacity_ah(self):
         return self.capacity_as / 3600.0
+

@@ -44,6 +44,7 @@ from collections import namedtuple
 
 from battery_simulator.core.gauge import (CAPACITY_LEARNED, END_OF_CHARGE, LEARNING_DEFAULTS, LOGGED_CORRECTION,
                                          OCV_REST, CoulombCounter)
+from battery_simulator.core.parameter_rules import is_number
 
 KELVIN = 273.15
 #: the cut-off's correction (not one of EVENT_KINDS: the truth's cut-off, not the gauge's rule)
@@ -87,6 +88,13 @@ def ocv_table(params, which):
 class LearningGauge(CoulombCounter):
     """The config's ``gauge: {model: learning, ...}`` (see the module's docstring)."""
 
+    __slots__ = ('settings', 'params', 'cells_series', 'cells_parallel', 'design_capacity_ah', 'relax_current_a',
+                 'taper_current_a', 'taper_current_min_a', 'taper_voltage_v', 'ocv', 'full', 'zero_locked', 'learned',
+                 'corrections', 'average_load_a', 'unusable', '_busy_charge_a', '_discharge_ocv', '_resistances',
+                 '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_passed_as',
+                 '_unusable_for', '_unusable_loaded', '_since_unusable_s', '_average_dt', '_average_decay', '_watching',
+                 '_shown', '_model')
+
     def __init__(self, config, true_capacity_ah, true_soc, model):
         """``model``: the pack (core/battery_model.py) whose OCV and resistance tables the gauge takes as
         its own model of the pack."""
@@ -113,7 +121,7 @@ class LearningGauge(CoulombCounter):
         self.zero_locked = False             # 0 % shown: held until a charge
         self.learned = False                 # the capacity has been updated at least once
         self.corrections = 0                 # corrections larger than LOGGED_CORRECTION
-        self._events = []
+        self._events = ()                    # the corrections not taken yet (a tuple: none is the empty one)
         self._rest_s = 0.0                   # how long |current| has stayed below relax_current_a
         self._since_reading_s = None         # since this rest's last reading (None: none yet)
         self._last_cell_v = None
@@ -123,37 +131,56 @@ class LearningGauge(CoulombCounter):
         self.average_load_a = 0.0            # the discharge current averaged (a rest or a charge: none)
         self.unusable = 0.0
         self._unusable_for = None            # (load, temperature, soc, capacity) the unusable soc is for
+        self._unusable_loaded = False        # ... and whether that load was one (not a rest)
         self._since_unusable_s = 0.0         # since it was computed
-        self._average_for = (None, 0.0)      # (dt, the load average's weight of the old value over dt)
+        self._average_dt = None              # the step the load average's weight is for
+        self._average_decay = 0.0            # the weight of the old average over that step
+        self._watching = False               # the rest and taper watch ran since the last discharge
+        self._shown = None                   # the reading since the last step (None: to compute)
         self._model = model
 
     # -- what the model calls ------------------------------------------------------------------
 
     def after_step(self, model, charge_as, dt_s, status_before):
+        # the model calls this at every step (a fleet host: for each robot ten times a second): the discharge's
+        # path does no more than count, average the load and look at the clock; the rest and taper watch run
+        # only while the current is small or a charge tapers
         self._model = model
         if dt_s > 0.0:
-            measured = self._measure(charge_as, dt_s)
-            current = measured / dt_s
-            if dt_s != self._average_for[0]:   # steps mostly repeat their length
-                self._average_for = (dt_s, math.exp(-dt_s / self.settings['load_average_s']))
-            load_a = -current if current < 0.0 else 0.0
-            self.average_load_a = load_a + (self.average_load_a - load_a) * self._average_for[1]
-            self._since_unusable_s += dt_s
-            if current > 0.0 and self.zero_locked:
-                self.zero_locked = False    # a charge releases 0 %
+            measured = charge_as * (1.0 + self.current_gain_error) + self.current_offset_a * dt_s
+            deadband = self.deadband_a * dt_s
+            if -deadband <= measured <= deadband:
+                current = 0.0   # within the deadband: nothing counted
+            else:
+                soc = self.soc + measured / self.capacity_as
+                self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
+                self._passed_as += measured
+                current = measured / dt_s
+            if dt_s != self._average_dt:   # steps mostly repeat their length
+                self._average_dt = dt_s
+                self._average_decay = math.exp(-dt_s / self.settings['load_average_s'])
+            if current < 0.0:
+                self.average_load_a = -current + (self.average_load_a + current) * self._average_decay
+            else:
+                self.average_load_a *= self._average_decay    # no load: the average decays
+                if current > 0.0 and self.zero_locked:
+                    self.zero_locked = False    # a charge releases 0 %
             if current <= -self.relax_current_a or current >= self._busy_charge_a:
                 # a discharge, or a charge above the taper: no rest, no taper (the cheap way)
-                self._rest_s, self._since_reading_s, self._taper_s, self._last_cell_v = 0.0, None, 0.0, None
+                if self._watching:
+                    self._rest_s, self._since_reading_s, self._taper_s, self._last_cell_v = 0.0, None, 0.0, None
+                    self._watching = False
             else:
+                self._watching = True
                 cell_v = model.voltage_v / self.cells_series
                 self._watch_taper(current, cell_v, dt_s)
                 self._watch_rest(current, cell_v, dt_s, model.temperature_c)
                 self._last_cell_v = cell_v
-            last = self._unusable_for
-            if last is None or self._since_unusable_s >= RECOMPUTE_AFTER_S \
-                    or (self.average_load_a >= self.relax_current_a) != (last[0] > 0.0):
+            self._since_unusable_s += dt_s
+            if self._unusable_for is None or self._since_unusable_s >= RECOMPUTE_AFTER_S \
+                    or (self.average_load_a >= self.relax_current_a) is not self._unusable_loaded:
                 self._refresh_unusable(model.temperature_c)
-            if current < 0.0 and not self.zero_locked and self.soc <= self.unusable and self.settings['lock_zero']:
+            if current < 0.0 and self.soc <= self.unusable and not self.zero_locked and self.settings['lock_zero']:
                 self.zero_locked = True
         elif self._unusable_for is None:
             self._refresh_unusable(model.temperature_c)
@@ -161,12 +188,17 @@ class LearningGauge(CoulombCounter):
         if status is not status_before and status.name == 'EMPTY' and model.cut_off is not None \
                 and model.cut_off.name == 'UNDER_VOLTAGE':
             self._at_cut_off()
+        self._shown = None   # the reading is computed again when asked
 
     def reading(self):
-        """(percentage, remaining capacity Ah, full charge capacity Ah): see the module's docstring."""
-        full_ah = self.capacity_as / 3600.0 * (1.0 - self.unusable)
-        fraction = self.fraction
-        return 100.0 * fraction, fraction * full_ah, full_ah
+        """(percentage, remaining capacity Ah, full charge capacity Ah): see the module's docstring. Computed
+        once after each step (the model asks twice: the percentage, and the charge for the time remaining)."""
+        shown = self._shown
+        if shown is None:
+            full_ah = self.capacity_as / 3600.0 * (1.0 - self.unusable)
+            fraction = self.fraction
+            shown = self._shown = (100.0 * fraction, fraction * full_ah, full_ah)
+        return shown
 
     @property
     def fraction(self):
@@ -183,18 +215,41 @@ class LearningGauge(CoulombCounter):
     def charge_ah(self):
         return self.reading()[1]
 
+    def save(self, state):
+        state['gauge_soc'] = self.soc
+        state['gauge_capacity_ah'] = self.capacity_as / 3600.0
+        state['gauge_learned'] = self.learned
+        state['gauge_zero_locked'] = self.zero_locked
+        state['gauge_full'] = self.full
+
+    def restore(self, saved):
+        """As a real gauge resumes from its flash: its state of charge, the full capacity it learned (a
+        positive number), whether it learned it, its zero lock and its end of charge (booleans); a value
+        missing or of the wrong kind leaves that one as the gauge started."""
+        super().restore(saved)
+        capacity_ah = saved.get('gauge_capacity_ah')
+        if is_number(capacity_ah) and capacity_ah > 0.0:
+            self.capacity_as = float(capacity_ah) * 3600.0
+        for key, name in (('gauge_learned', 'learned'), ('gauge_zero_locked', 'zero_locked'), ('gauge_full', 'full')):
+            if isinstance(saved.get(key), bool):
+                setattr(self, name, saved[key])
+        self._unusable_for = None   # for the capacity and state of charge resumed
+        self._shown = None
+
     def restart(self):
         self._rest_s, self._since_reading_s, self._last_cell_v, self._taper_s = 0.0, None, None, 0.0
         self._reading, self._passed_as = None, 0.0
         self.zero_locked = False
         self.full = self.soc >= 1.0
         self._unusable_for = None
+        self._shown = None
         if self._model is not None:
             self._refresh_unusable(self._model.temperature_c)
 
     def add_error(self, points):
         super().add_error(points)
         self.full = self.soc >= 1.0
+        self._shown = None
 
     def on_full(self):
         """The truth's Full does not make a learning gauge show 100 %: its own end of charge does."""
@@ -203,22 +258,12 @@ class LearningGauge(CoulombCounter):
         self._at_cut_off()
 
     def take_events(self):
-        if not self._events:
-            return ()
-        events, self._events = self._events, []
+        events = self._events
+        if events:
+            self._events = ()
         return events
 
     # -- the rules --------------------------------------------------------------------------------
-
-    def _measure(self, charge_as, dt_s):
-        """Count what the sensor saw (A*s, pack; 0 within the deadband) into the state of charge."""
-        measured = charge_as * (1.0 + self.current_gain_error) + self.current_offset_a * dt_s
-        if -self.deadband_a * dt_s <= measured <= self.deadband_a * dt_s:
-            return 0.0
-        soc = self.soc + measured / self.capacity_as
-        self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
-        self._passed_as += measured
-        return measured
 
     def _watch_taper(self, current, cell_v, dt_s):
         """Two taper windows in a row near the charge voltage: the end of charge."""
@@ -320,6 +365,7 @@ class LearningGauge(CoulombCounter):
         self.zero_locked = bool(self.settings['lock_zero'])
         if not self.zero_locked:
             self.soc = self.unusable
+        self._shown = None
         self._event(CUT_OFF, 100.0 * old, 0.0, 'the pack cut off at its cut-off voltage')
 
     def _event(self, kind, old, new, reason, size=None):
@@ -327,13 +373,16 @@ class LearningGauge(CoulombCounter):
         event = GaugeEvent(kind, old, new, size, reason)
         if size > LOGGED_CORRECTION:
             self.corrections += 1
-        self._events.append(event)
+        self._events += (event,)
         if len(self._events) > 100:   # nobody takes them (a model without a front end): keep the latest
-            del self._events[:50]
+            self._events = self._events[50:]
 
     # -- remaining capacity ------------------------------------------------------------------------
 
     def _refresh_unusable(self, temperature_c):
+        """Recompute the unusable state of charge if what it is for moved (looked at every RECOMPUTE_AFTER_S,
+        and at once when a load came or went)."""
+        self._since_unusable_s = 0.0
         load_a, soc, capacity_as = self.average_load_a, self.soc, self.capacity_as
         if load_a < self.relax_current_a:
             load_a = 0.0    # at rest (or charging): the open-circuit voltage's end
@@ -345,7 +394,7 @@ class LearningGauge(CoulombCounter):
                 and capacity_as == last[3]:
             return
         self._unusable_for = (load_a, temperature_c, soc, capacity_as)
-        self._since_unusable_s = 0.0
+        self._unusable_loaded = load_a > 0.0
         self.unusable = self.unusable_soc(load_a, temperature_c, soc)
 
     def unusable_soc(self, load_a, temperature_c, soc):

@@ -107,8 +107,8 @@ class GroupedPack(BatteryModel):
             discharged += group.discharged_ah
             if group.state_of_health < health:
                 health = group.state_of_health
-        total = charge_out + charge_in
-        self.state_of_charge = charge_out / total if total > 0.0 else 0.0
+        total = charge_out + charge_in   # a group's capacity share: never 0 (MIN_STATE_OF_HEALTH)
+        self.state_of_charge = charge_out / total
         self._capacity_as = total
         self.discharged_ah = discharged / len(self.groups)
         self.state_of_health = health
@@ -289,10 +289,8 @@ class GroupedPack(BatteryModel):
                 return False
             if bleed:   # the bleed resistor's heat, into the group's cells (held over the step)
                 self._heat(group, bleed * group.cell_voltage_v / p.cells_parallel, dt_s)
-        if bleeds:
+        if bleeds:   # (without balancing no group ever bleeds)
             self.bleeding = [bool(b) for b in bleeds]
-        elif any(self.bleeding):
-            self.bleeding = [False] * len(groups)
         return True
 
     def _end_charge(self):
