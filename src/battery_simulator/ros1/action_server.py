@@ -58,7 +58,7 @@ from battery_simulator.ros1.services import BatteryServices
 from battery_simulator.ros1.startup import clock_publishers
 
 FEEDBACK_PERIOD_S = 1.0   # feedback at least this often, even when the model is paused
-LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (contact flapping) at most this often
+LOG_PERIOD_S = 1.0        # lines an input can repeat at any rate (goals ping-ponged) at most this often
 SERVICE_PUBLISH_WAIT_S = 1.0   # a service's reply waits this long (wall) for its change to be published
 JUMP_LOG_PERIOD_S = 10.0       # a clock that jumps back and forth (two /clock publishers) warns this often
 __all__ = ['BatterySimServer', 'noisy_current', 'noisy_voltage']
@@ -226,6 +226,7 @@ class BatterySimServer:
             self._lock.notify_all()
         self._store.maybe_save(update.saved_state)
         self._log_progress(update.snapshot)
+        self._log.settle()
         self._check_goal(update.snapshot)
 
     def _read_mode_param(self):
@@ -330,10 +331,8 @@ class BatterySimServer:
                 self._mode_param.set(1 if connected else 0)
                 self._wake_up()
         if changed:
-            # a format per state: a connect and the disconnect after it are both said (a flood of
-            # either is still at most a line a second)
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
-                                    source)
+            # every change said, none throttled; a bouncing contact counted on one line (core/battery_log.py)
+            self._log.transition('%s: charger connected' if connected else '%s: charger disconnected', source)
 
 
 class _LatestStateOnConnect(rospy.SubscribeListener):

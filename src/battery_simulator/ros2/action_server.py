@@ -129,6 +129,7 @@ class BatterySimServer:
         if self._store is not None:
             self._store.maybe_save(update.saved_state)
         self._check_goal(update.snapshot)
+        self._log.settle()
         taken = self._cmd_vel.follow_publishers()
         if taken is not None:
             self._log.info('%s: taking %s, as its publishers send', self.node.resolve_topic_name(
@@ -220,10 +221,8 @@ class BatterySimServer:
     def change_contact(self, connected, source):
         if self.battery.change_contact(connected, source):
             self._write_mode(self.battery.mode)
-            # a format per state: a connect and the disconnect after it are both said (a flood of
-            # either is still at most a line a second)
-            self._log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
-                                    source)
+            # every change said, none throttled; a bouncing contact counted on one line (core/battery_log.py)
+            self._log.transition('%s: charger connected' if connected else '%s: charger disconnected', source)
             self.update(publish_now=True)
 
 
