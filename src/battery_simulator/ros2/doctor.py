@@ -23,6 +23,9 @@ STEP_S = 0.05
 #: how long past ``--sample`` the doctor waits for its subscriptions to be matched to every publisher
 #: (discovery of 200 new subscriptions on a busy machine takes seconds)
 MATCH_ALLOWANCE_S = 5.0
+#: discovery is over when it found nothing new (no topic, no battery publisher) for this long: on 2 busy cores
+#: a new participant had found 98 of a 100-robot host's 200 battery topics at the end of the 5 s wait
+DISCOVERY_QUIET_S = 1.0
 #: during --wait, the battery topics discovery shows are subscribed from this far in, and again every period
 FIRST_LOOK_S = 0.25
 LOOK_PERIOD_S = 0.25
@@ -94,6 +97,7 @@ class Sampler:
         self.records = {}   # topic name -> {'samples', 'subscription', 'publishers', 'since'}
         self.heard = set()   # the GIDs of the publishers that sent a sample
         self.progress = {}   # participant (GID prefix) -> monotonic time one of its publishers was first heard
+        self._found = None   # what the last scan found: the topic count, each battery topic's publisher count
 
     def _record(self, samples, msg, info):
         gid = gid_text(info.get('publisher_gid'))
@@ -113,12 +117,18 @@ class Sampler:
 
     def scan(self):
         """Subscribe to every battery topic discovery shows now and not subscribed yet: from the topic names
-        and types alone (describing 300 topics' endpoints takes a busy machine most of a second)."""
-        for name, types in self.node.get_topic_names_and_types():
-            if name not in self.records and any(doctor.is_battery_type(t) for t in types):
+        and types alone (describing 300 topics' endpoints takes a busy machine most of a second). True when
+        discovery found more since the last scan (a topic, or a battery topic's publisher)."""
+        topics = self.node.get_topic_names_and_types()
+        found = [len(topics)]
+        for name, types in topics:
+            if any(doctor.is_battery_type(t) for t in types):
                 publishers = self.node.count_publishers(name)
-                if publishers:
+                found.append(publishers)
+                if name not in self.records and publishers:
                     self._subscribe(name, publishers)
+        grew, self._found = found != self._found, found
+        return grew
 
     def subscribe(self, graph):
         """Subscribe to every published battery topic of ``graph`` not subscribed yet; the others learn how
@@ -150,57 +160,77 @@ class Sampler:
                 topics[name] = topic
         return topics
 
-    def heard_out(self, name, topic, now):
-        """Whether ``topic`` is done: each publisher sent a message and it has doctor.SAMPLES_PER_TOPIC, or it
-        was heard for its window of ``topic.sampled_s`` (``Topic.heard``: how long so far).
+    def heard_out(self, name, topic, now, waiting):
+        """Whether ``topic`` is done: each publisher sent a message and it has doctor.SAMPLES_PER_TOPIC, or its
+        silent publishers were heard for the window of ``topic.sampled_s`` (``Topic.heard``: how long so far).
 
-        The window starts when the subscription is matched to every publisher here, and not before the
-        publisher's own process stopped catching up: a subscription matched here is matched there only once
-        that process has processed it (a host of 100 robots on a busy machine takes seconds over 200 new
-        subscriptions: they were said "sent nothing" while it was still working through them). So for a
-        publisher not heard yet, the window starts again whenever another publisher of its process (its
-        GID's participant prefix) is heard for the first time."""
+        A subscription matched here is matched in the publisher's process only once that process has worked
+        through it: a host of 100 robots on a busy machine takes seconds over 200 new subscriptions (they
+        were said "sent nothing" while it was still at it). So a publisher not heard yet is waited for while
+        its process (its GID's participant prefix) has other publishers not heard yet (``waiting``: {process:
+        publishers not heard}), and its window starts when it was matched here and its process was last
+        heard from on a publisher for the first time."""
         since = self.records[name]['since']
-        done = len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not doctor.unheard(topic)
-        if since is None:
-            return done
         unheard = doctor.unheard(topic)
-        start = max([since] + [self.progress.get(participant(e.gid), since) for e in unheard if e.gid])
+        if len(topic.samples) >= doctor.SAMPLES_PER_TOPIC and not unheard:
+            return True
+        if since is None:
+            return False
+        processes = [participant(e.gid) for e in unheard if e.gid]
+        if any(waiting.get(p, 0) > processes.count(p) for p in processes):
+            return False   # its process is still catching up
+        start = max([since] + [self.progress.get(p, since) for p in processes])
         topic.heard = now - start
-        return done or now - start >= topic.sampled_s
+        return now - start >= topic.sampled_s
 
     def run(self, wait_s, seconds):
-        """Discover and sample at once: the battery topics discovery shows are subscribed from FIRST_LOOK_S on
+        """Discover and sample at once. The battery topics discovery shows are subscribed from FIRST_LOOK_S on
         and again every LOOK_PERIOD_S (a busy host needs seconds to match 200 new subscriptions before it
-        sends to them), and heard out while discovery goes on; after ``wait_s`` the graph is described once
-        more and the run ends as soon as each of its battery topics is heard out (``heard_out``), at the
-        latest ``seconds`` + max(``seconds``, MATCH_ALLOWANCE_S) after ``wait_s``. The graph, sampled.
+        sends to them) and heard out while discovery goes on. From ``wait_s`` on, the graph to report is
+        described (again whenever discovery found more since), and the run ends once discovery has found
+        nothing new for DISCOVERY_QUIET_S and each battery topic is heard out (``heard_out``); at the latest
+        ``seconds`` + max(``seconds``, MATCH_ALLOWANCE_S) after ``wait_s``, with the topics not heard out
+        (unsampled) and, if discovery was still finding endpoints, ``Graph.discovering_s`` set. The graph.
 
-        Before, sampling began only after the whole discovery wait (5 s + up to 8 s; on 100 robots 8-20 s
-        end to end, issue 40 item 4): a topic heard out during the wait now costs nothing after it."""
+        Before, sampling began only after the whole discovery wait, and the graph was what discovery had
+        found by then: on 100 robots and a busy machine 8-20 s end to end, as few as 98 of 200 battery
+        topics found and "no problems found" said (issue 40 item 4)."""
         import rclpy
         started = time.monotonic()
         wait_deadline = started + wait_s
         hard_deadline = wait_deadline + seconds + max(seconds, MATCH_ALLOWANCE_S)
         next_look = started + FIRST_LOOK_S
-        graph, pending = None, None
+        grew_at, described_at = started, None
+        graph, pending = None, {}
         while True:
             rclpy.spin_once(self.node, timeout_sec=STEP_S)
             now = time.monotonic()
             self.track(now)
-            if graph is None and (now >= next_look or now >= wait_deadline):
-                if now >= wait_deadline:   # discovery's bound: the graph to report, every topic in it sampled
-                    graph = describe(self.node)
-                    pending = self.attach(graph, seconds)
-                else:
-                    self.scan()
-                    next_look = now + LOOK_PERIOD_S
-            if pending is None:
+            if now >= next_look:
+                if self.scan():
+                    grew_at = now
+                next_look = now + LOOK_PERIOD_S
+            if now < wait_deadline:
                 continue
+            if described_at is None or described_at < grew_at:   # the graph to report, every topic in it sampled
+                graph = describe(self.node)
+                pending = self.attach(graph, seconds)
+                described_at = now
+            waiting = {}
+            for topic in pending.values():
+                for endpoint in doctor.unheard(topic):
+                    waiting[participant(endpoint.gid)] = waiting.get(participant(endpoint.gid), 0) + 1
             for name, topic in list(pending.items()):
-                if self.heard_out(name, topic, now) or now >= hard_deadline:
+                if now >= hard_deadline:   # those still waited for are unsampled, not silent (core/doctor.py)
+                    if not self.heard_out(name, topic, now, waiting):
+                        topic.heard = None
                     del pending[name]
-            if not pending:
+                elif self.heard_out(name, topic, now, waiting):
+                    del pending[name]
+            settled = now - grew_at >= DISCOVERY_QUIET_S
+            if (not pending and settled) or now >= hard_deadline:
+                if not settled:
+                    graph.discovering_s = now - started
                 return graph
 
     def close(self):
