@@ -100,3 +100,20 @@ def test_no_bound_without_one():
     base = TimeBase(1.0)
     base.elapsed(0.5)
     assert base.elapsed(1e6) == 1e6 - 0.5 and base.restarts == 0
+
+
+def test_the_pace_waits_for_every_topic_since_the_last_tick():
+    """Issue 40 items 8 and 15: sim_clock paced on the robot's cmd_vel moves ROS time a tick only once the
+    controller answered the last one (its front ends wait at most PACE_WAIT_S for it)."""
+    from battery_simulator.robot.clock import PACE_WAIT_S, Pace
+    pace = Pace(['/cmd_vel', '/odom'])
+    assert pace.ready(), 'the first tick waits for nothing'
+    pace.ticked()
+    assert not pace.ready()
+    pace.heard('/cmd_vel')
+    assert not pace.ready(), 'one of two topics'
+    pace.heard('/odom')
+    assert pace.ready()
+    pace.ticked()
+    assert not pace.ready(), 'a message before the tick does not count for the next'
+    assert Pace([]).ready() and 0.0 < PACE_WAIT_S <= 1.0
