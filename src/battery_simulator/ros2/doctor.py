@@ -11,8 +11,8 @@ discovery tells it) and hears each battery topic out: 3 messages and one from ea
 stopped catching up with the new subscriptions (a busy host of 100 robots takes seconds over 200). Then
 one line per finding (core/doctor.py's rules) and an ``unsampled:`` line for the topics it could not hear
 out. Exit 0 when clean and every battery topic sampled, 1 when it found something or left a topic
-unsampled, 2 for a bad command line or an empty graph. 100 robots: 8-10 s on 2 busy cores
-(tools/benchmark_dashboard.py --doctor).
+unsampled, 2 for a bad command line or an empty graph. 100 robots (battery_fleet): 8-10 s at a load
+average of 9-10 on 2 cores, 12-17 s at 22-25 (tools/benchmark_dashboard.py --doctor-only 100).
 """
 import sys
 import time
@@ -27,7 +27,7 @@ MATCH_ALLOWANCE_S = 5.0
 #: a new participant had found 24-192 of a 100-robot host's 200 battery topics at the end of the 5 s wait, and
 #: what a full socket buffer dropped came again seconds later (at a reliable writer's heartbeat)
 DISCOVERY_QUIET_S = 2.0
-#: during --wait, the battery topics discovery shows are subscribed from this far in, and again every period
+#: the battery topics discovery shows are subscribed from this far in, and again every period
 FIRST_LOOK_S = 0.25
 LOOK_PERIOD_S = 0.25
 #: the default discovery wait: Fast DDS announces a participant every 3 s, and one outside another's
