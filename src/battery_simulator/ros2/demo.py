@@ -110,9 +110,7 @@ class Demo:
     def start_roles(self):
         """Each node's role (StartupError for a bad setting); the clock starts with ``clock.start()``."""
         settings = self.settings
-        # paced on the base's cmd_vel, as demo.launch (robot/clock.py's Pace: ROS time never runs ahead of the robot)
-        self.clock = SimClock(self.clock_node, settings['speed'], 0.0, settings['tick_hz'], start_now=False,
-                              pace_on=['cmd_vel'])
+        self.clock = SimClock(self.clock_node, settings['speed'], 0.0, settings['tick_hz'], start_now=False)
         self.battery = OneBattery(self.battery_node, self.status_node)
         self.base = FakeBase(self.base_node, **read_settings(self.base_node, base.SETTINGS))
         self.contact = DockContact(self.contact_node, **read_settings(self.contact_node, dock_contact.SETTINGS))
