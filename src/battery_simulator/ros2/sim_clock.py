@@ -21,7 +21,10 @@ from rclpy.time import Time
 
 from battery_simulator.robot import clock as rule
 from battery_simulator.ros2.robot_node import run_node
-from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER
+from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER, steady_clock
+
+
+FINISH_JOIN_S = 1.0   # the longest a stop waits for the clock's thread to end
 
 
 def clock_msg(seconds):
@@ -42,6 +45,9 @@ class SimClock:
         self._pace = rule.Pace(node.resolve_topic_name(topic) for topic in pace_on)
         self._paced = threading.Condition()
         self._pace_subs = {}   # topic -> subscription, once its type is known (from its publishers)
+        # made on the executor's thread (made on the clock's, the process aborted at its end)
+        self._pace_timer = node.create_timer(rule.HOLD_PERIOD_S, self._follow_pace, clock=steady_clock()) \
+            if self._pace.topics else None
         self._stopped = threading.Event()
         self._thread = threading.Thread(target=self._run, name='sim_clock', daemon=True)
         if start_now:
@@ -54,8 +60,13 @@ class SimClock:
         self._stopped.set()
 
     def finish(self):
-        """At a stop signal: no tick after it."""
+        """At a stop signal: no tick after it, and the thread ended (a pace wait cut short) before rclpy goes
+        (a thread still in rclpy at the end aborted the process: "terminate called without an active exception")."""
         self.stop()
+        with self._paced:
+            self._paced.notify_all()
+        if self._thread.is_alive():
+            self._thread.join(FINISH_JOIN_S)
         return lambda: True
 
     def _hold(self):
@@ -77,6 +88,9 @@ class SimClock:
     def _follow_pace(self):
         """Subscribe to the pace_on topics whose type the graph shows now (rclpy takes no message of any type)."""
         import importlib
+        if len(self._pace_subs) == len(self._pace.topics):
+            self._node.destroy_timer(self._pace_timer)
+            return
         types = dict(self._node.get_topic_names_and_types())
         for topic in self._pace.topics:
             if topic in self._pace_subs or not types.get(topic):
@@ -94,13 +108,11 @@ class SimClock:
     def _wait_for_pace(self):
         """Until every pace_on topic sent a message since the last tick (bounded, wall time); a topic not
         subscribed yet (no publisher seen) is not waited for."""
-        if len(self._pace_subs) < len(self._pace.topics):
-            self._follow_pace()
         with self._paced:
             for topic in self._pace.topics:
                 if topic not in self._pace_subs:
                     self._pace.heard(topic)
-            self._paced.wait_for(self._pace.ready, rule.PACE_WAIT_S)
+            self._paced.wait_for(lambda: self._pace.ready() or self._stopped.is_set(), rule.PACE_WAIT_S)
             self._pace.ticked()
 
     def _run(self):
