@@ -93,11 +93,22 @@ def test_a_robot_backing_off_the_dock_that_pauses_in_the_inner_half_stays_discon
     assert contact.update(0.0, 0.12, 0.0, 0.0) is True, 'back on the dock: connected again'
 
 
-def test_a_robot_nudged_towards_the_dock_after_a_contact_is_connected_again():
+def test_a_robot_nudged_by_a_few_centimetres_after_a_contact_is_connected_again():
     contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
     assert contact.update(0.20, 0.0, 0.0, 0.0) is True
-    assert contact.update(0.15, 0.0, -0.2, 0.0) is False       # moving towards the dock
-    assert contact.update(0.12, 0.0, 0.0, 0.0) is True
+    assert contact.update(0.18, 0.0, -0.2, 0.0) is False       # seated a little further in
+    assert contact.update(0.17, 0.0, 0.0, 0.0) is True
+
+
+def test_a_robot_backing_off_past_the_centre_that_pauses_stays_disconnected():
+    """The ROS 2 demo at speed 240 under load, with the rule "leaving = its distance growing": 3 contacts away
+    from the dock in 4 cycles. A robot that docked turned sideways (it turned in place on the way in) backs off
+    across the centre: its distance shrinks first, and a pause there closed the contact."""
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    assert contact.update(0.12, 0.0, 0.0, 0.0) is True         # docked
+    assert contact.update(0.05, 0.0, -0.15, 0.0) is False      # backing off, towards the centre
+    assert contact.update(0.04, 0.0, 0.0, 0.0) is None, 'a pause while leaving closed the contact'
+    assert contact.update(-0.10, 0.0, 0.0, 0.0) is None
 
 
 def test_a_robot_that_passed_the_centre_before_touching_still_connects():
