@@ -69,6 +69,25 @@ def drive_to(x, y, yaw, goal_x, goal_y, speed, step_s=1.0 / CONTROL_RATE_HZ):
     return linear, angular
 
 
+def back_to(x, y, yaw, goal_x, goal_y, speed, step_s=1.0 / CONTROL_RATE_HZ):
+    """(linear, angular) to back a unicycle at (x, y, yaw) to the goal: drive_to with the robot's rear as its
+    front (turn first, then reverse)."""
+    linear, angular = drive_to(x, y, yaw + math.pi, goal_x, goal_y, speed, step_s)
+    return -linear, angular
+
+
+def undock_goal(x, y, yaw, dock_x, dock_y, distance_m):
+    """Where to back off the dock to: ``distance_m`` on from (x, y), away from the dock (straight back when the
+    robot stands on the dock's centre). Backing along the robot's heading instead took a robot that had turned
+    on the dock across it and to its far side, and the patrol back across the dock closed the contact there
+    (issue 40 item 8, the ROS 2 demo at speed 240 under load)."""
+    away_x, away_y = x - dock_x, y - dock_y
+    norm = math.hypot(away_x, away_y)
+    if norm < 1e-3:
+        away_x, away_y, norm = -math.cos(yaw), -math.sin(yaw), 1.0
+    return x + distance_m * away_x / norm, y + distance_m * away_y / norm
+
+
 def control_step(last_s, now_s):
     """The ROS time a command sent now holds (s), or None when no step is due: ROS time has not moved (a
     coarse clock may wake the loop twice a tick). A jump back of more than a second restarts it."""
@@ -100,7 +119,7 @@ class Patrol:
         self._send_charge_goal = send_charge_goal
         self.phase = None
         self.next_waypoint = 0
-        self.undock_from = None
+        self.undock_from = None   # UNDOCK's goal (undock_goal)
 
     def enter(self, phase):
         self.phase = phase
@@ -137,16 +156,16 @@ class Patrol:
             if self.rested_s is not None:   # full: rest on the dock rest_on_dock seconds, then undock
                 if self.rested_s >= self.rest_on_dock:
                     self.rested_s = None
-                    self.undock_from = (x, y)
+                    self.undock_from = undock_goal(x, y, yaw, self.dock[0], self.dock[1], self.undock_distance)
                     self.enter(UNDOCK)
                 else:
                     self.rested_s += step_s
             return 0.0, 0.0
-        # UNDOCK: back straight off the dock, then patrol from the first waypoint (within ARRIVED_M of
-        # the distance: halving what is left each step would otherwise never get there)
-        left_m = self.undock_distance - math.hypot(x - self.undock_from[0], y - self.undock_from[1])
+        # UNDOCK: back off the dock, away from it (undock_goal), then patrol from the first waypoint (within
+        # ARRIVED_M: halving what is left each step would otherwise never get there)
+        left_m = math.hypot(self.undock_from[0] - x, self.undock_from[1] - y)
         if left_m < ARRIVED_M:
             self.next_waypoint = 0
             self.enter(PATROL)
             return 0.0, 0.0
-        return -min(0.5 * self.speed, 0.5 * left_m / step_s), 0.0
+        return back_to(x, y, yaw, self.undock_from[0], self.undock_from[1], 0.5 * self.speed, step_s)
