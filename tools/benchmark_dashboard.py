@@ -5,6 +5,8 @@ on /usr/bin/python3).
 
     tools/ros2.sh python3 tools/benchmark_dashboard.py 250 500          # today's battery_fleet at 250, 500
     tools/ros2.sh python3 tools/benchmark_dashboard.py --doctor 100     # battery_doctor at 100 robots too
+    tools/ros2.sh python3 tools/benchmark_dashboard.py --doctor-only 100 --doctor-before OLD.py   # the doctor
+        # alone, three runs each of this and an older ros2/doctor.py, in turn, on one fleet
     tools/ros2.sh python3 tools/benchmark_dashboard.py 250 --before OLD.py   # and an older ros2/dashboard.py
     tools/ros2.sh python3 tools/benchmark_dashboard.py --stand-in 1000  # a one-node stand-in fleet host of 1000
 
@@ -191,18 +193,33 @@ def api_count(port):
         return -1
 
 
-def doctor(rows, n):
-    began = time.monotonic()
-    result = subprocess.run(['battery_doctor'], capture_output=True, text=True, timeout=180.0)
-    took = time.monotonic() - began
-    sampled = len(set(re.findall(r'^sampled +(\S+) ', result.stdout, re.M)))
-    unsampled = [line for line in result.stdout.splitlines() if line.startswith('unsampled:')]
-    rows.append(('battery_doctor, %d robots' % n, '%.1f s, exit %d' % (took, result.returncode),
-                 '%d battery topics sampled%s' % (sampled, '; ' + unsampled[0][:120] if unsampled else ''),
-                 '<= 15 s, every topic sampled' if n == 100 else ''))
+#: runs an older ros2/doctor.py (a file, argv[1]) as battery_doctor
+OLD_DOCTOR = ('import sys, importlib.util as u; s = u.spec_from_file_location("old_doctor", sys.argv[1]); '
+              'm = u.module_from_spec(s); s.loader.exec_module(m); m.main(sys.argv[2:])')
 
 
-def dashboard(rows, n, with_doctor, dashboards, stand_in):
+def doctor(rows, n, before=None):
+    """battery_doctor's wall time on the fleet; with ``before`` (an older ros2/doctor.py) three runs of each,
+    in turn (the load the same for both)."""
+    commands = [('battery_doctor', ['battery_doctor'])]
+    if before:
+        commands.append((os.path.basename(before), [sys.executable, '-c', OLD_DOCTOR, before]))
+    for attempt in range(3 if before else 1):
+        for label, command in commands:
+            began = time.monotonic()
+            result = subprocess.run(command, capture_output=True, text=True, timeout=180.0)
+            took = time.monotonic() - began
+            sampled = len(set(re.findall(r'^sampled +(\S+) ', result.stdout, re.M)))
+            listed = len(set(re.findall(r'^publisher +(\S+) +sensor_msgs/msg/BatteryState ', result.stdout, re.M)))
+            problems = [line for line in result.stdout.splitlines() if line.startswith(('unsampled:', 'problem:'))]
+            rows.append(('%s, %d robots' % (label, n), '%.1f s, exit %d' % (took, result.returncode),
+                         '%d of %d battery topics listed sampled, %d problem lines%s (load %.1f)' % (
+                             sampled, listed, len(problems), '; ' + problems[0][:100] if problems else '',
+                             os.getloadavg()[0]),
+                         '<= 15 s, every topic sampled' if n == 100 else ''))
+
+
+def dashboard(rows, n, with_doctor, dashboards, stand_in, doctor_before=None):
     began = time.monotonic()
     if stand_in:
         fleet = start([sys.executable, '-c', STAND_IN_FLEET, str(n)])
@@ -216,7 +233,7 @@ def dashboard(rows, n, with_doctor, dashboards, stand_in):
             return
         fleet_up = time.monotonic() - began
         if with_doctor:
-            doctor(rows, n)
+            doctor(rows, n, doctor_before)
         for label, command in dashboards:
             measure_dashboard(rows, n, label, command, fleet, bare, fleet_up, stand_in)
     finally:
@@ -298,11 +315,17 @@ def main():
         before = arguments.pop(arguments.index('--before') + 1)
         arguments.remove('--before')
         dashboards.append(('%s' % os.path.basename(before), [sys.executable, before]))
+    doctor_before = None
+    if '--doctor-before' in arguments:
+        doctor_before = arguments.pop(arguments.index('--doctor-before') + 1)
+        arguments.remove('--doctor-before')
+    if '--doctor-only' in arguments:
+        with_doctor, dashboards = True, []
     stand_in = '--stand-in' in arguments
-    sizes = [int(a) for a in arguments if a not in ('--doctor', '--stand-in')] or [250]
+    sizes = [int(a) for a in arguments if a not in ('--doctor', '--doctor-only', '--stand-in')] or [250]
     rows = Rows()
     for n in sizes:
-        dashboard(rows, n, with_doctor, dashboards, stand_in)
+        dashboard(rows, n, with_doctor, dashboards, stand_in, doctor_before)
     header = ('measurement', 'figure', 'beside it (same run)', 'target')
     widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(4)]
     print('\nROS 2 dashboard (Fast DDS on 127.0.0.1, %d cores, load average %s)'

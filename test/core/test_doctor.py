@@ -299,3 +299,17 @@ def test_command_line():
         with pytest.raises(UsageError) as error:
             parse_arguments(bad)
         assert named in str(error.value) and '\n' not in str(error.value), (bad, str(error.value))
+
+
+def test_a_discovery_still_finding_endpoints_is_never_no_problems_found():
+    """Issue 40 item 4: on a busy machine the ROS 2 doctor had found 98 of a 100-robot host's 200 battery topics
+    when its wait ended, and said "no problems found" about them. A discovery still finding endpoints when the
+    doctor stops is a line of its own, counted (exit 1)."""
+    graph = clean_graph()
+    graph.discovering_s = 13.2
+    lines, code = report(graph)
+    assert code == EXIT_FOUND and 'no problems found' not in lines, lines
+    assert [line for line in lines if line.startswith('undiscovered: ')] == [
+        'undiscovered: discovery was still finding endpoints after 13.2 s, so the graph may be larger than shown: '
+        'give a longer --wait'], lines
+    assert lines[-1] == '0 problem(s) found, discovery unfinished', lines

@@ -75,7 +75,7 @@ def test_a_pose_the_last_command_has_not_moved_is_not_steered_again(monkeypatch)
 def test_undocking_ends_although_each_step_drives_half_the_way_left(step_s):
     entered = []
     behaviour = patrol.Patrol(patrol.DEFAULT_WAYPOINTS, 0.0, 0.0, 0.3, 0.6, entered.append, lambda: None)
-    behaviour.phase, behaviour.undock_from = patrol.UNDOCK, (0.0, 0.0)
+    behaviour.phase, behaviour.undock_from = patrol.UNDOCK, patrol.undock_goal(0.0, 0.0, 0.0, 0.0, 0.0, 0.6, (0.0, 0.0))
     pose = (0.0, 0.0, 0.0)
     for _ in range(200):
         linear, angular = behaviour.control(pose, False, False, step_s)
@@ -100,3 +100,46 @@ def test_no_bound_without_one():
     base = TimeBase(1.0)
     base.elapsed(0.5)
     assert base.elapsed(1e6) == 1e6 - 0.5 and base.restarts == 0
+
+
+def test_the_pace_waits_for_every_topic_since_the_last_tick():
+    """Issue 40 items 8 and 15: sim_clock paced on the robot's cmd_vel moves ROS time a tick only once the
+    controller answered the last one (its front ends wait at most PACE_WAIT_S for it)."""
+    from battery_simulator.robot.clock import PACE_WAIT_S, Pace
+    pace = Pace(['/cmd_vel', '/odom'])
+    assert pace.ready(), 'the first tick waits for nothing'
+    pace.ticked()
+    assert not pace.ready()
+    pace.heard('/cmd_vel')
+    assert not pace.ready(), 'one of two topics'
+    pace.heard('/odom')
+    assert pace.ready()
+    pace.ticked()
+    assert not pace.ready(), 'a message before the tick does not count for the next'
+    assert Pace([]).ready() and 0.0 < PACE_WAIT_S <= 1.0
+
+
+@pytest.mark.parametrize('start', [(0.0, 0.12, 0.0), (-0.05, -0.02, 2.8), (0.0, -0.1, 1.57)])
+@pytest.mark.parametrize('step_s', [0.05, 0.24, 0.6])
+def test_a_robot_that_turned_on_the_dock_backs_off_away_from_it(step_s, start):
+    """Issue 40 item 8 on the real demo (ROS 2 battery_demo at speed 240, load 20-30): the contact closed on
+    patrol 3 times in 4 cycles. A robot that turned on the dock (parked 0.12 m north of it, facing east)
+    backed off along its heading, across the dock to its west, and the patrol back east to the first
+    waypoint crossed the contact's radius (and one that stopped past the centre, backing off away from the
+    dock, did the same). It backs off to the first waypoint's side of the dock, and the way on stays out."""
+    entered = []
+    behaviour = patrol.Patrol(patrol.DEFAULT_WAYPOINTS, 0.0, 0.0, 0.3, 0.6, entered.append, lambda: None)
+    behaviour.phase, behaviour.rested_s = patrol.CHARGING, 0.0
+    pose = start   # turned on the dock; stopped past its centre (as seen on the demo); south of it
+    for _ in range(400):
+        linear, angular = behaviour.control(pose, False, False, step_s, patrol.GOAL_SUCCEEDED)
+        if patrol.PATROL in entered:
+            break
+        pose, _ = fake_base.advance(pose, (linear, angular, 0.0), 0.0, step_s, 100.0)
+    assert entered == [patrol.UNDOCK, patrol.PATROL], entered
+    assert math.hypot(*pose[:2]) > 0.3, 'undocked within the radius: %s' % (pose,)
+    first = patrol.DEFAULT_WAYPOINTS[0]
+    # the leg on to the first waypoint, from where the undocking ended, keeps out of the radius (0.3 m)
+    dx, dy = first[0] - pose[0], first[1] - pose[1]
+    t = max(0.0, min(1.0, -(pose[0] * dx + pose[1] * dy) / (dx * dx + dy * dy)))
+    assert math.hypot(pose[0] + t * dx, pose[1] + t * dy) > 0.3, 'the way on passes the dock from %s' % (pose,)

@@ -77,3 +77,42 @@ def test_a_cycle_closes_the_contact_only_at_the_dock(tick_s, seed):
     away = [(phase, round(math.hypot(*pose[:2]), 3)) for phase, pose in closed if phase not in (GO_TO_DOCK, CHARGING)]
     assert not away, 'the contact closed away from the dock: %s' % away
     assert all(math.hypot(*pose[:2]) <= RADIUS_M for phase, pose in closed if phase == GO_TO_DOCK)
+
+
+def test_a_robot_backing_off_the_dock_that_pauses_in_the_inner_half_stays_disconnected():
+    """Issue 40 item 8 on the real demo (ROS 2 battery_demo at speed 240, load 20-30): the contact closed in 2
+    of 5 cycles, during UNDOCK, with the rule of 87e33ef: the robot parked 0.12 m from the dock, backed off,
+    and paused 0.135 m out (the inner half, where that rule closed the contact whatever the robot did)."""
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    assert contact.update(0.0, 0.20, -0.3, 0.0) is None        # arriving
+    assert contact.update(0.0, 0.12, 0.0, 0.0) is True         # parked: connected
+    assert contact.update(0.0, 0.135, 0.0, 0.15) is False      # backing off
+    assert contact.update(0.0, 0.135, 0.0, 0.0) is None, 'a pause while leaving closed the contact'
+    assert contact.update(0.0, 0.25, 0.0, 0.0) is None, 'nor further out'
+    assert contact.update(0.0, 0.45, 0.0, 0.15) is None        # out of the radius
+    assert contact.update(0.0, 0.12, 0.0, 0.0) is True, 'back on the dock: connected again'
+
+
+def test_a_robot_nudged_by_a_few_centimetres_after_a_contact_is_connected_again():
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    assert contact.update(0.20, 0.0, 0.0, 0.0) is True
+    assert contact.update(0.18, 0.0, -0.2, 0.0) is False       # seated a little further in
+    assert contact.update(0.17, 0.0, 0.0, 0.0) is True
+
+
+def test_a_robot_backing_off_past_the_centre_that_pauses_stays_disconnected():
+    """The ROS 2 demo at speed 240 under load, with the rule "leaving = its distance growing": 3 contacts away
+    from the dock in 4 cycles. A robot that docked turned sideways (it turned in place on the way in) backs off
+    across the centre: its distance shrinks first, and a pause there closed the contact."""
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    assert contact.update(0.12, 0.0, 0.0, 0.0) is True         # docked
+    assert contact.update(0.05, 0.0, -0.15, 0.0) is False      # backing off, towards the centre
+    assert contact.update(0.04, 0.0, 0.0, 0.0) is None, 'a pause while leaving closed the contact'
+    assert contact.update(-0.10, 0.0, 0.0, 0.0) is None
+
+
+def test_a_robot_that_passed_the_centre_before_touching_still_connects():
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    for x, vx in ((0.25, -0.3), (0.05, -0.3), (-0.05, -0.3), (-0.10, -0.3)):
+        assert contact.update(x, 0.0, vx, 0.0) is None
+    assert contact.update(-0.11, 0.0, 0.0, 0.0) is True

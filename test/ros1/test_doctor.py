@@ -107,6 +107,24 @@ class TestDoctor(unittest.TestCase):
         self.assertNotIn('no problems found', output)
 
 
+    def test_3_a_node_still_serving_the_doctors_connections_is_not_called_silent(self):
+        """Issue 40 item 4: a fleet host of 100 robots on a busy machine sent nothing for seconds on some of the
+        doctor's 200 new connections while it served the others, and they were called silent. One node whose
+        topic K sends only 0.5 x K s after the doctor connected (the last 4.5 s after): every topic of it
+        sampled, none called silent (before: those from 3 s on were)."""
+        topics = ['/lag/robot%d/battery_status' % k for k in range(10)]
+        process = plant('lagging_host', *['pub,topic=%s,type=BatteryState,lag=%g' % (topic, 0.5 * k)
+                                          for k, topic in enumerate(topics)])
+        try:
+            code, output = run_doctor('--sample', '3')
+        finally:
+            stop_process(process)
+        named = [line for line in problems(output) + [l for l in output.splitlines() if l.startswith('unsampled:')]
+                 if '/lag/' in line]
+        self.assertEqual(named, [], output)
+        for topic in topics:
+            self.assertRegex(output, r'(?m)^sampled +%s ' % topic, output)
+
 if __name__ == '__main__':
     rospy.init_node('test_doctor')
     rostest.rosrun('battery_simulator', 'doctor', TestDoctor)

@@ -23,6 +23,7 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
 from battery_simulator.core.status_rules import URGENT_GAP_S   # battery_state_pub: one immediate message per 20 ms
+from battery_simulator.core.battery_log import SETTLE_S
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import InjectFault, SetLoad, SetState
 from rostest_helpers import Recorder, SetStateProxy, result_name, wait_for
@@ -221,6 +222,28 @@ class TestHardening(unittest.TestCase):
             seen = self.status.count()
             self.set_charging(False)
             self.status.wait_new(seen, lambda m: m.power_supply_status == DISCHARGING, 1.0, 'the last state')
+
+    def test_every_connect_and_disconnect_is_logged_none_throttled(self):
+        """Issue 40 item 8: connect, disconnect, connect within a second lost the second connect to the
+        throttle (one a state a second). Each change is said: at once after a state that stood, else counted
+        as a bounce and said with the state it ended in once the contact stands (core/battery_log.py)."""
+        wait_for(lambda: self.contact.get_num_connections() > 0, 10.0, 'the server on charger_contact')
+        self.set_charging(False)
+        time.sleep(SETTLE_S + 0.2)   # the state stands: the next change is a transition of its own
+        logged = self.log.count()
+        for connected, status in ((True, CHARGING), (False, DISCHARGING), (True, CHARGING)):
+            seen = self.status.count()
+            self.contact.publish(Bool(data=connected))
+            self.status.wait_new(seen, lambda m: m.power_supply_status == status, 5.0, 'contact %s' % connected)
+        wait_for(lambda: self.server_lines(logged, lambda m: 'after 2 change(s)' in m.msg), 10.0,
+                 'the bounces said')
+        lines = [m.msg for m in self.server_lines(logged, lambda m: 'charger contact: charger' in m.msg)]
+        self.assertEqual(len(lines), 2, lines)
+        self.assertTrue(lines[0].endswith('charger contact: charger connected'), lines)
+        self.assertTrue(lines[1].startswith('charger contact: charger connected (after 2 change(s)'), lines)
+        seen = self.status.count()
+        self.contact.publish(Bool(data=False))
+        self.status.wait_new(seen, lambda m: m.power_supply_status == DISCHARGING, 5.0, 'the last state')
 
     def test_goal_ping_pong_is_logged_at_most_about_once_a_second(self):
         """50 goals a second, charge and discharge in turn, for 2 s: the goal lines are throttled (it was

@@ -6,8 +6,10 @@
           [,reliability=reliable|best_effort][,durability=volatile|transient_local][,depth=N]
           [,percentage=P,current=A,status=S,voltage=V]   (a BatteryState publisher's values, sent at 5 Hz)
           [,silent_after=N]   (a publisher that sends N messages, then nothing: it went silent)
-    or    fleet,robots=N      (one node publishing /robotK/battery_status and /robotK/battery_state, K < N,
-                               at 1 Hz: a fleet host's battery topics, for the doctor at 100 robots)
+    or    fleet,robots=N[,lag=S]   (one node publishing /robotK/battery_status and /robotK/battery_state, K < N,
+                               at 1 Hz: a fleet host's battery topics, for the doctor at 100 robots; with
+                               lag, robot K sends only from K x S seconds after a subscriber is there: a host
+                               on a busy machine working through a doctor's new subscriptions one by one)
 Several specs may name one node (three publishers sharing a node name: three nodes of that name).
 
 Prints 'ready' once every endpoint exists; ends on SIGINT or SIGTERM. Run under tools/ros2.sh.
@@ -15,6 +17,7 @@ Endpoints of two types on one topic need two processes (one DDS participant take
 """
 import signal
 import sys
+import time
 
 import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
@@ -25,7 +28,7 @@ from sensor_msgs.msg import BatteryState
 TYPES = {'BatteryState': BatteryState, 'Twist': Twist, 'TwistStamped': TwistStamped}
 
 
-def plant_fleet(robots, executor, keep):
+def plant_fleet(robots, executor, keep, lag_s=0.0):
     node = rclpy.create_node('planted_fleet')
     executor.add_node(node)
     senders = []
@@ -33,15 +36,30 @@ def plant_fleet(robots, executor, keep):
         msg = BatteryState(percentage=0.5 + 0.004 * k, voltage=11.1, current=-1.0, present=True,
                            power_supply_status=BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
         for name in ('battery_status', 'battery_state'):
-            senders.append((node.create_publisher(BatteryState, '/robot%d/%s' % (k, name), 10), msg))
-    keep.append(node.create_timer(1.0, lambda: [publisher.publish(msg) for publisher, msg in senders]))
+            senders.append((node.create_publisher(BatteryState, '/robot%d/%s' % (k, name), 10), msg, k * lag_s))
+    if not lag_s:
+        keep.append(node.create_timer(1.0, lambda: [publisher.publish(msg) for publisher, msg, _ in senders]))
+        return
+    subscribed_at = {}   # publisher -> monotonic time a subscriber was first there
+    sent_at = {}
+
+    def send_lagged():
+        now = time.monotonic()
+        for publisher, msg, lag in senders:
+            if publisher not in subscribed_at and publisher.get_subscription_count() > 0:
+                subscribed_at[publisher] = now
+            if (publisher in subscribed_at and now - subscribed_at[publisher] >= lag
+                    and now - sent_at.get(publisher, -1.0) >= 1.0):
+                publisher.publish(msg)
+                sent_at[publisher] = now
+    keep.append(node.create_timer(0.05, send_lagged))
 
 
 def plant(spec, executor, keep):
     role, *pairs = spec.split(',')
     fields = dict(pair.split('=', 1) for pair in pairs)
     if role == 'fleet':
-        plant_fleet(int(fields['robots']), executor, keep)
+        plant_fleet(int(fields['robots']), executor, keep, float(fields.get('lag', 0.0)))
         return
     node = rclpy.create_node(fields['node'], namespace=fields.get('ns', '/'))
     executor.add_node(node)

@@ -20,7 +20,8 @@ line each beginning ``problem:``, naming the topic and the fix:
   sent nothing.
 
 A battery topic the sampler could not hear (not connected to every publisher in time) is listed on an
-``unsampled:`` line of its own and counts as a finding (exit 1): the doctor never says "no problems
+``unsampled:`` line of its own and counts as a finding (exit 1), and so does a discovery still finding
+endpoints when the doctor had to stop (an ``undiscovered:`` line): the doctor never says "no problems
 found" about what it did not see.
 """
 import math
@@ -95,9 +96,11 @@ class Topic:
 
 @dataclass
 class Graph:
-    """{topic name: Topic}; ``has_qos`` is False on ROS 1."""
+    """{topic name: Topic}; ``has_qos`` is False on ROS 1; ``discovering_s``: set when discovery was still
+    finding endpoints after that many seconds, when the doctor had to stop (the graph may be larger)."""
     topics: dict = field(default_factory=dict)
     has_qos: bool = True
+    discovering_s: float = None
 
     def topic(self, name):
         return self.topics.setdefault(name, Topic())
@@ -382,12 +385,17 @@ def report(graph):
               ['%s (not sampled)' % name for name in never]
         lines.append('unsampled: %d battery topic(s) not heard out, so not checked: %s: give a longer --sample '
                      '(or --wait)' % (len(why), ', '.join(why)))
-    count = len(problems) + len(missed) + len(never)
+    if graph.discovering_s is not None:
+        lines.append('undiscovered: discovery was still finding endpoints after %.1f s, so the graph may be larger '
+                     'than shown: give a longer --wait' % graph.discovering_s)
+    count = len(problems) + len(missed) + len(never) + (graph.discovering_s is not None)
     if not count:
         return lines + ['no problems found'], EXIT_CLEAN
     summary = '%d problem(s) found' % len(problems)
     if missed or never:
         summary += ', %d battery topic(s) unsampled' % (len(missed) + len(never))
+    if graph.discovering_s is not None:
+        summary += ', discovery unfinished'
     return lines + [summary], EXIT_FOUND
 
 

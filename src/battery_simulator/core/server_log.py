@@ -40,10 +40,13 @@ class ServerLog:
         self.log.warn_throttle(LOG_PERIOD_S, 'goal rejected: %s', reason)
 
     def charger(self, connected, source):
-        # a format per state: a connect and the disconnect after it are both said (a flood of either is still
-        # at most a line a second)
-        self.log.info_throttle(LOG_PERIOD_S, '%s: charger connected' if connected else '%s: charger disconnected',
-                               source)
+        """Every change said, none throttled; a bouncing contact counted on one line (core/battery_log.py's
+        transition, said by ``settle``)."""
+        self.log.transition('%s: charger connected' if connected else '%s: charger disconnected', source)
+
+    def settle(self):
+        """At every update: the bounces of a contact that has stood still since (core/battery_log.py)."""
+        self.log.settle()
 
     def time_jump(self, update, max_jump_s, clock_publishers):
         """An update's clock jump (core/battery.py Update.time_jump), naming the /clock publishers."""

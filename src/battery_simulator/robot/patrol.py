@@ -69,6 +69,30 @@ def drive_to(x, y, yaw, goal_x, goal_y, speed, step_s=1.0 / CONTROL_RATE_HZ):
     return linear, angular
 
 
+def back_to(x, y, yaw, goal_x, goal_y, speed, step_s=1.0 / CONTROL_RATE_HZ):
+    """(linear, angular) to back a unicycle at (x, y, yaw) to the goal: drive_to with the robot's rear as its
+    front (turn first, then reverse)."""
+    linear, angular = drive_to(x, y, yaw + math.pi, goal_x, goal_y, speed, step_s)
+    return -linear, angular
+
+
+def undock_goal(x, y, yaw, dock_x, dock_y, distance_m, toward):
+    """Where to back off the dock to: ``distance_m`` from the dock towards ``toward`` (the first waypoint, where
+    the patrol goes on), so that the way on never crosses the dock; away from the dock, or straight back,
+    when ``toward`` is the dock. Backing along the robot's heading (or away from the dock, from where it
+    stood) took a robot that had turned on the dock, or stopped past its centre, to the dock's far side, and
+    the patrol back to the first waypoint crossed the contact's radius and closed it there (issue 40 item 8:
+    the ROS 2 demo at speed 240 under load, 6-7 contacts on patrol in 4 cycles)."""
+    ahead_x, ahead_y = toward[0] - dock_x, toward[1] - dock_y
+    norm = math.hypot(ahead_x, ahead_y)
+    if norm < 1e-3:
+        ahead_x, ahead_y = x - dock_x, y - dock_y
+        norm = math.hypot(ahead_x, ahead_y)
+    if norm < 1e-3:
+        ahead_x, ahead_y, norm = -math.cos(yaw), -math.sin(yaw), 1.0
+    return dock_x + distance_m * ahead_x / norm, dock_y + distance_m * ahead_y / norm
+
+
 def control_step(last_s, now_s):
     """The ROS time a command sent now holds (s), or None when no step is due: ROS time has not moved (a
     coarse clock may wake the loop twice a tick). A jump back of more than a second restarts it."""
@@ -100,7 +124,7 @@ class Patrol:
         self._send_charge_goal = send_charge_goal
         self.phase = None
         self.next_waypoint = 0
-        self.undock_from = None
+        self.undock_from = None   # UNDOCK's goal (undock_goal)
 
     def enter(self, phase):
         self.phase = phase
@@ -137,16 +161,17 @@ class Patrol:
             if self.rested_s is not None:   # full: rest on the dock rest_on_dock seconds, then undock
                 if self.rested_s >= self.rest_on_dock:
                     self.rested_s = None
-                    self.undock_from = (x, y)
+                    self.undock_from = undock_goal(x, y, yaw, self.dock[0], self.dock[1], self.undock_distance,
+                                                   self.waypoints[0])
                     self.enter(UNDOCK)
                 else:
                     self.rested_s += step_s
             return 0.0, 0.0
-        # UNDOCK: back straight off the dock, then patrol from the first waypoint (within ARRIVED_M of
-        # the distance: halving what is left each step would otherwise never get there)
-        left_m = self.undock_distance - math.hypot(x - self.undock_from[0], y - self.undock_from[1])
+        # UNDOCK: back off the dock towards the first waypoint's side (undock_goal), then patrol from it (within
+        # ARRIVED_M: halving what is left each step would otherwise never get there)
+        left_m = math.hypot(self.undock_from[0] - x, self.undock_from[1] - y)
         if left_m < ARRIVED_M:
             self.next_waypoint = 0
             self.enter(PATROL)
             return 0.0, 0.0
-        return -min(0.5 * self.speed, 0.5 * left_m / step_s), 0.0
+        return back_to(x, y, yaw, self.undock_from[0], self.undock_from[1], 0.5 * self.speed, step_s)

@@ -217,6 +217,7 @@ class BatterySimServer:
             self._lock.notify_all()
         self._store.maybe_save(update.saved_state)
         self._lines.progress(update.snapshot)
+        self._lines.settle()
         self._check_goal(update.snapshot)
 
     def _read_mode_param(self):

@@ -46,7 +46,7 @@ class DockContact:
             rospy.logwarn_throttle(10.0, str(error))
             return
         if changed is not None:
-            rospy.loginfo('charger contact: %s', changed)
+            rospy.loginfo('charger contact: %s (at %.2f, %.2f)', changed, position.x, position.y)
             self._pub.publish(Bool(data=changed))
 
     def spin(self):

@@ -21,10 +21,13 @@ its battery 480 s emptier at speed 240 than at speed 1.
   - ``~tick_hz`` (float, Hz, 0 < f <= 10000): ticks per wall second (default 1000)
   - ``~wait_for`` (list of topic names): hold ROS time until each has a publisher (default none)
   - ``~wait_timeout`` (float > 0, wall s): start anyway after this long, with a warning (default 60)
+  - ``~pace_on`` (list of topic names): each tick waits, at most 0.5 s of wall time, for a message on each
+    since the last tick (demo.launch: the robot's cmd_vel; robot/clock.py's Pace)
 
 :Publishes:
   - ``/clock`` (rosgraph_msgs/Clock)
 """
+import threading
 import time
 
 import rosgraph
@@ -42,11 +45,26 @@ def read_settings():
 
 
 class SimClock:
-    def __init__(self, speed, start, tick_hz, wait_for=(), wait_timeout=60.0):
+    def __init__(self, speed, start, tick_hz, wait_for=(), wait_timeout=60.0, pace_on=()):
         self._speed, self._start, self._tick_hz = speed, start, tick_hz
         self._wait_for = [rospy.resolve_name(topic) for topic in wait_for]
         self._wait_timeout = wait_timeout
         self._pub = rospy.Publisher(ros_names.CLOCK, Clock, queue_size=10)
+        self._pace = rule.Pace(rospy.resolve_name(topic) for topic in pace_on)
+        self._paced = threading.Condition()
+        self._pace_subs = [rospy.Subscriber(topic, rospy.AnyMsg, self._on_pace, callback_args=topic, queue_size=10)
+                           for topic in self._pace.topics]
+
+    def _on_pace(self, _msg, topic):
+        with self._paced:
+            self._pace.heard(topic)
+            self._paced.notify_all()
+
+    def _wait_for_pace(self):
+        """Until every pace_on topic sent a message since the last tick (bounded, wall time)."""
+        with self._paced:
+            self._paced.wait_for(self._pace.ready, rule.PACE_WAIT_S)
+            self._pace.ticked()
 
     def _hold(self):
         """Publish ``~start`` until every ``~wait_for`` topic has a publisher (bounded, wall time)."""
@@ -77,6 +95,8 @@ class SimClock:
                 now = schedule.tick()
             except rule.ClockTooFar:
                 exit_on_startup_error(StartupError(rule.too_far_line('~start')), stop_launch=False)
+            if self._pace.topics:
+                self._wait_for_pace()
             self._pub.publish(Clock(clock=rospy.Time.from_sec(now)))
             delay_s, behind = schedule.delay(time.monotonic())
             if delay_s > 0.0:

@@ -130,6 +130,7 @@ class BatterySimServer:
             self._store.maybe_save(update.saved_state)
         self._lines.progress(update.snapshot)
         self._check_goal(update.snapshot)
+        self._lines.settle()
         taken = self._cmd_vel.follow_publishers()
         if taken is not None:
             self._log.info('%s: taking %s, as its publishers send', self.node.resolve_topic_name(

@@ -33,7 +33,7 @@ class DockContact:
             self._node.get_logger().warning(str(error), throttle_duration_sec=10.0)
             return
         if changed is not None:
-            self._node.get_logger().info('charger contact: %s' % changed)
+            self._node.get_logger().info('charger contact: %s (at %.2f, %.2f)' % (changed, position.x, position.y))
             self._pub.publish(Bool(data=changed))
 
     def _repeat(self):

@@ -7,7 +7,8 @@ names) it holds ROS time at ``start`` until each has a publisher (at most ``wait
 node started with ``use_sim_time:=true`` follows it.
 
 :Parameters: ``speed`` (0 < s <= 10000, default 1), ``start`` (s, 0), ``tick_hz`` (0 < f <= 10000, 1000),
-  ``wait_for`` (topic names, none), ``wait_timeout`` (s, 60)
+  ``wait_for`` (topic names, none), ``wait_timeout`` (s, 60), ``pace_on`` (topic names, none: each tick waits, at
+  most 0.5 wall s, for a message on each since the last; robot/clock.py's Pace)
 :Publishes: ``/clock`` (rosgraph_msgs/msg/Clock)
 """
 import os
@@ -20,7 +21,10 @@ from rclpy.time import Time
 
 from battery_simulator.core import ros_names
 from battery_simulator.robot import clock as rule
-from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER, run_node
+from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER, run_node, steady_clock
+
+
+FINISH_JOIN_S = 1.0   # the longest a stop waits for the clock's thread to end
 
 
 def clock_msg(seconds):
@@ -32,12 +36,18 @@ class SimClock:
     serves its parameters. ``start_now`` False: the caller calls ``start()`` (battery_demo, once every node
     of its process is up)."""
 
-    def __init__(self, node, speed, start, tick_hz, wait_for=(), wait_timeout=60.0, start_now=True):
+    def __init__(self, node, speed, start, tick_hz, wait_for=(), wait_timeout=60.0, start_now=True, pace_on=()):
         self._node = node
         self._speed, self._start, self._tick_hz = speed, start, tick_hz
         self._wait_for = [node.resolve_topic_name(topic) for topic in wait_for]
         self._wait_timeout = wait_timeout
         self._pub = node.create_publisher(Clock, ros_names.CLOCK, 10)
+        self._pace = rule.Pace(node.resolve_topic_name(topic) for topic in pace_on)
+        self._paced = threading.Condition()
+        self._pace_subs = {}   # topic -> subscription, once its type is known (from its publishers)
+        # made on the executor's thread (made on the clock's, the process aborted at its end)
+        self._pace_timer = node.create_timer(rule.HOLD_PERIOD_S, self._follow_pace, clock=steady_clock()) \
+            if self._pace.topics else None
         self._stopped = threading.Event()
         self._thread = threading.Thread(target=self._run, name='sim_clock', daemon=True)
         if start_now:
@@ -50,8 +60,13 @@ class SimClock:
         self._stopped.set()
 
     def finish(self):
-        """At a stop signal: no tick after it."""
+        """At a stop signal: no tick after it, and the thread ended (a pace wait cut short) before rclpy goes
+        (a thread still in rclpy at the end aborted the process: "terminate called without an active exception")."""
         self.stop()
+        with self._paced:
+            self._paced.notify_all()
+        if self._thread.is_alive():
+            self._thread.join(FINISH_JOIN_S)
         return lambda: True
 
     def _hold(self):
@@ -69,6 +84,36 @@ class SimClock:
                 return
             if missing:
                 self._stopped.wait(rule.HOLD_PERIOD_S)
+
+    def _follow_pace(self):
+        """Subscribe to the pace_on topics whose type the graph shows now (rclpy takes no message of any type)."""
+        import importlib
+        if len(self._pace_subs) == len(self._pace.topics):
+            self._node.destroy_timer(self._pace_timer)
+            return
+        types = dict(self._node.get_topic_names_and_types())
+        for topic in self._pace.topics:
+            if topic in self._pace_subs or not types.get(topic):
+                continue
+            package, _, name = types[topic][0].split('/')
+            msg_type = getattr(importlib.import_module(package + '.msg'), name)
+            self._pace_subs[topic] = self._node.create_subscription(
+                msg_type, topic, lambda _msg, topic=topic: self._on_pace(topic), 10)
+
+    def _on_pace(self, topic):
+        with self._paced:
+            self._pace.heard(topic)
+            self._paced.notify_all()
+
+    def _wait_for_pace(self):
+        """Until every pace_on topic sent a message since the last tick (bounded, wall time); a topic not
+        subscribed yet (no publisher seen) is not waited for."""
+        with self._paced:
+            for topic in self._pace.topics:
+                if topic not in self._pace_subs:
+                    self._pace.heard(topic)
+            self._paced.wait_for(lambda: self._pace.ready() or self._stopped.is_set(), rule.PACE_WAIT_S)
+            self._pace.ticked()
 
     def _run(self):
         try:
@@ -90,6 +135,8 @@ class SimClock:
                 log.fatal(rule.too_far_line('start'))
                 sys.stderr.flush()
                 os._exit(EXIT_BAD_PARAMETER)
+            if self._pace.topics:
+                self._wait_for_pace()
             self._pub.publish(clock_msg(now))
             delay_s, behind = schedule.delay(time.monotonic())
             if delay_s > 0.0:
