@@ -186,6 +186,19 @@ def test_99_percent_holds_through_the_taper_until_at_most_120_s_before_the_charg
     assert model.gauge.corrections == 0, 'from the hold (or the truth just below it) to 100 %: no correction'
 
 
+@pytest.mark.parametrize('dt_s', [0.1, 1.0, 5.0])
+def test_an_aged_pack_filled_before_its_taper_ends_shows_100_percent_after_the_charger_terminates(dt_s):
+    """An aged pack (300 cycles: config/battery_impedance_track.yaml) is filled (SOC 1) while its charge current
+    is still 0.18 A, above the gauge's 0.055 A taper: the charger terminates there, the gauge shows 100 % within
+    90 s (it held 99 % on the dock for ever: a hostile probe, ROS 1 and ROS 2)."""
+    aged = from_mapping({'preset': PACK, 'initial_cycle_count': 300, 'gauge': {'preset': 'impedance_track'}})
+    model = make_model(aged, 0.96, Mode.IDLE)
+    hundred, terminated, highest, _ = charge_watch(model, dt_s)
+    assert terminated is not None and hundred is not None, (terminated, hundred, shown(model))
+    assert terminated <= hundred <= terminated + 90.0, (hundred, terminated)
+    assert highest == pytest.approx(99.0, abs=0.05)
+
+
 def test_a_charge_stopped_half_a_percent_before_its_termination_shows_99_percent():
     """Measured: the truth is 99.5 % there (the charge ends at SOC 1 on its own since issue 40's item 14), the
     gauge shows 99 %, and 99 % after a 3 h rest (the rest read through the mean OCV): never 100 %."""

@@ -188,6 +188,12 @@ class LearningGauge(CoulombCounter):
         if status is not status_before and status.name == 'EMPTY' and model.cut_off is not None \
                 and model.cut_off.name == 'UNDER_VOLTAGE':
             self._at_cut_off()
+        elif status is not status_before and status.name == 'FULL' and not self.full and dt_s > 0.0:
+            # the charger ended the charge itself: at its termination current, below the taper current, which
+            # a gauge sampling once a second sees in the band before the current stops; the model's step may
+            # end the charge above it (a pack filled first, an aged one: 0.18 A against a 0.055 A taper), and
+            # then the gauge held 99 % on the dock for ever. A charge cut short (contact lost) is no Full.
+            self._taper_s = max(self._taper_s, dt_s)
         self._shown = None   # the reading is computed again when asked
 
     def reading(self):
