@@ -9,7 +9,8 @@ import fit_logs
 from battery_simulator.cli import fit as fit_cli
 from battery_simulator.core.config_files import load_yaml, preset
 from battery_simulator.core.fit.conventions import prepare
-from battery_simulator.core.fit.fitting import _lasting, fit
+from battery_simulator.core.fit.fitting import fit
+from battery_simulator.core.fit.loads_charger import _lasting
 from battery_simulator.core.fit.log_reader import read_log
 from battery_simulator.core.fit.report import figures
 
@@ -101,7 +102,7 @@ def test_a_learned_curve_joins_the_presets_table_without_a_point_twice(ends):
     one ending at 0.85, a point of the preset's table, gave 0.85 twice (an i3 drive refused): the table stays
     strictly increasing from 0 to 1, the knots in it."""
     from battery_simulator.core.fit.circuit import Chemistry
-    from battery_simulator.core.fit.fitting import Electrical, _electrical_values
+    from battery_simulator.core.fit.electrical import Electrical, electrical_values
     knots = np.linspace(ends[0], ends[1], 6)
     values = np.interp(knots, HG2.ocv_soc, HG2.ocv_voltage_v) + 0.01
     electrical = Electrical(capacity_ah=3.0, soc0=[0.9], tau1_s=100.0, tau_fast_s=10.0,
@@ -111,7 +112,7 @@ def test_a_learned_curve_joins_the_presets_table_without_a_point_twice(ends):
                             cells_series=1, cells_parallel=1)
     curve = {'knots': knots, 'values': values, 'resistances': {'r0_ohm': 0.02, 'r1_ohm': 0.01, 'r_fast_ohm': 0.005},
              'sigmas': {}, 'gap': False, 'smoothness': 0.1, 'cv': (0.01, 0.005), 'rmse_v': 0.001}
-    changes = _electrical_values(electrical, curve, Chemistry(HG2), 1, 1, False, {}, {}, [])
+    changes = electrical_values(electrical, curve, Chemistry(HG2), 1, 1, False, {}, {}, [])
     soc = changes['ocv_soc']
     assert soc[0] == 0.0 and soc[-1] == 1.0 and all(b > a for a, b in zip(soc, soc[1:])), soc
     assert len(changes['ocv_voltage_v']) == len(soc)

@@ -1,0 +1,287 @@
+"""The electrical fit (no ROS): the capacity, starting SOCs and time constants searched, the OCV offset and
+resistances solved by least squares; and the config values it gives (capacity, resistances, OCV table)."""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from battery_simulator.core.fit import FitError, Fitted
+from battery_simulator.core.fit.circuit import log_arrays, regressors, state_of_charge
+from battery_simulator.core.fit.known import KNOWN_SPREAD, REST_S, Known
+from battery_simulator.core.parameter_rules import MAX_CELLS
+
+#: bounds of the searched time constants, s
+TAU1_BOUNDS, TAU_FAST_BOUNDS = (60.0, 20000.0), (2.0, 200.0)
+
+
+def parallel_count(capacity_ah, cell_capacity_ah):
+    """The parallel count of a pack of ``capacity_ah`` of the preset's cells (at most MAX_CELLS: then the
+    cells are larger)."""
+    return min(MAX_CELLS, max(1, int(round(capacity_ah / cell_capacity_ah))))
+
+
+@dataclass
+class Electrical:
+    capacity_ah: float             # pack
+    soc0: list
+    tau1_s: float
+    tau_fast_s: float
+    coefficients: dict             # offset, r0, r1, r_fast (per cell), with sigma
+    rmse_v: float                  # per cell, on the fitted samples
+    use_tables: bool
+    uncertainty: dict              # capacity_ah, tau1_s, tau_fast_s sigmas
+    pieces: list                   # per log: (arrays, soc, ocv, x0, x1, xf) at the solution
+    cells_series: int
+    cells_parallel: int
+
+
+def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest, start,
+                    max_evaluations=200, known=None):
+    """The capacity, starting SOCs and time constants searched, the OCV offset and resistances solved; where
+    no log's current steps (steady_current) the resistances and time constants are the preset's."""
+    from scipy.optimize import least_squares
+    p = chemistry.params
+    steady = steady_current(logs)
+    arrays = [log_arrays(log, chemistry, cells_series, cells_parallel) for log in logs]
+    scales = [chemistry.arrhenius(temperature) for temperature in temperatures]
+    if start is None:
+        soc0 = [_soc_guess(chemistry, a.cell_voltage[0]) for a in arrays]
+        capacity = _capacity_guess(logs, arrays, chemistry, soc0)
+        z0 = [math.log(capacity)] + soc0 + [math.log(p.tau1_s), math.log(p.tau_fast_s)]
+    else:
+        z0 = [math.log(start.capacity_ah)] + list(start.soc0) + [math.log(start.tau1_s), math.log(start.tau_fast_s)]
+    n = len(logs)
+    known = known or Known()
+    low = [z0[0] - math.log(20.0)] + [0.0] * n + [math.log(TAU1_BOUNDS[0]), math.log(TAU_FAST_BOUNDS[0])]
+    high = [z0[0] + math.log(20.0)] + [1.0] * n + [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1])]
+    if known.capacity_ah is not None:   # the capacity (and the starting SOCs) the logs fix
+        z0[0] = math.log(known.capacity_ah)
+        low[0], high[0] = z0[0] - KNOWN_SPREAD, z0[0] + KNOWN_SPREAD
+    for k in range(n):
+        if known.soc0 is not None:
+            z0[1 + k] = known.soc0[k]
+            low[1 + k], high[1 + k] = max(0.0, known.soc0[k] - KNOWN_SPREAD), min(1.0, known.soc0[k] + KNOWN_SPREAD)
+    if steady:   # the time constants: the preset's
+        for j in (-2, -1):
+            low[j], high[j] = z0[j] - 1e-6, z0[j] + 1e-6
+    z0 = np.clip(z0, np.asarray(low) + 1e-9, np.asarray(high) - 1e-9)
+    counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
+                         * a.dt) / 3600.0 * cells_parallel for a in arrays]   # pack Ah
+
+    def starts(z):
+        """Each log's starting SOC: searched, or 1 at a full charge's end."""
+        capacity = math.exp(z[0])
+        out = []
+        for k in range(n):
+            full = known.full_at[k] if known.full_at is not None and known.soc0 is None else None
+            out.append(min(1.0, max(0.0, 1.0 - counted[k][full] / capacity)) if full is not None else float(z[1 + k]))
+        return out
+
+    def solve(z, use_tables):
+        capacity = math.exp(z[0])
+        tau1, tau_fast = math.exp(z[-2]), math.exp(z[-1])
+        pieces, rows, targets = [], [], []
+        soc0 = starts(z)
+        for k, a in enumerate(arrays):
+            soc = state_of_charge(a, capacity / cells_parallel, soc0[k], p.coulombic_efficiency)
+            ocv = chemistry.ocv_at(soc, a.weight)
+            x0, x1, xf = regressors(a, soc, scales[k], chemistry, tau1, tau_fast, use_tables)
+            pieces.append((a, soc, ocv, x0, x1, xf))
+            m = masks[k]
+            columns = [x0[m], x1[m], xf[m]]
+            if has_rest:
+                columns.insert(0, np.ones(m.sum()))
+            rows.append(np.column_stack(columns))
+            targets.append(a.cell_voltage[m] - ocv[m])
+        design, target = np.vstack(rows), np.concatenate(targets)
+        names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
+        if steady:   # the preset's resistances: a steady current cannot tell them from the OCV
+            preset_r = np.array([p.r0_ohm, p.r1_ohm, p.r_fast_ohm])
+            target = target - design[:, -3:] @ preset_r
+            values, sigmas, residual = non_negative_lstsq(design[:, :-3], target, names[:-3])
+            values.update(zip(names[-3:], preset_r.tolist()))
+            return pieces, values, sigmas, residual
+        values, sigmas, residual = non_negative_lstsq(design, target, names)
+        return pieces, values, sigmas, residual
+
+    def residuals(z, use_tables):
+        return solve(z, use_tables)[3]
+
+    results = []
+    for use_tables in (True, False) if chemistry.table_soc is not None else (False,):
+        solution = least_squares(residuals, z0, bounds=(low, high), args=(use_tables,), x_scale='jac',
+                                 diff_step=1e-4, max_nfev=max_evaluations)
+        pieces, values, sigmas, residual = solve(solution.x, use_tables)
+        rmse = float(np.sqrt(np.mean(residual ** 2)))
+        results.append((rmse, use_tables, solution, pieces, values, sigmas))
+    # the preset's SOC tables only where they explain the log better (else the simpler circuit)
+    rmse, use_tables, solution, pieces, values, sigmas = min(results, key=lambda r: r[0] * (1.0 + 0.02 * r[1]))
+    best = dict(values)
+    best.setdefault('offset', 0.0)
+    uncertainty = jacobian_sigmas(solution, rmse)
+    return Electrical(capacity_ah=math.exp(solution.x[0]), soc0=starts(solution.x),
+                      tau1_s=math.exp(solution.x[-2]), tau_fast_s=math.exp(solution.x[-1]),
+                      coefficients={k: (best[k], sigmas.get(k)) for k in best}, rmse_v=rmse, use_tables=use_tables,
+                      uncertainty={'capacity_ah': math.exp(solution.x[0]) * uncertainty[0],
+                                   'tau1_s': math.exp(solution.x[-2]) * uncertainty[-2],
+                                   'tau_fast_s': math.exp(solution.x[-1]) * uncertainty[-1]},
+                      pieces=pieces, cells_series=cells_series, cells_parallel=cells_parallel)
+
+
+def jacobian_sigmas(solution, rmse):
+    jacobian = solution.jac
+    try:
+        covariance = np.linalg.pinv(jacobian.T @ jacobian) * rmse ** 2
+        return np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    except np.linalg.LinAlgError:
+        return np.full(len(solution.x), np.nan)
+
+
+def steady_current(logs):
+    """Whether no log's current steps (conventions' FitLog.steady_current: a constant-current test)."""
+    return all(log.steady_current for log in logs)
+
+
+def small_lstsq(design, target):
+    """Least squares of a few columns against many rows: the normal equations of the columns scaled to unit
+    norm (a tall matrix's SVD costs the search most of its time)."""
+    norms = np.sqrt(np.einsum('ij,ij->j', design, design))
+    norms = np.where(norms > 0, norms, 1.0)
+    gram = (design.T @ design) / np.outer(norms, norms)
+    return np.linalg.lstsq(gram, (design.T @ target) / norms, rcond=1e-12)[0] / norms
+
+
+def non_negative_lstsq(design, target, names):
+    """Least squares with the resistances >= 0 (the offset free): dropping a negative one at a time.
+    Returns ({name: value}, {name: sigma}, residual)."""
+    if not names:
+        return {}, {}, target
+    active = list(range(len(names)))
+    while True:
+        values, *_ = np.linalg.lstsq(design[:, active], target, rcond=None)
+        negative = [(values[j], j) for j, col in enumerate(active) if names[col] != 'offset' and values[j] < 0]
+        if not negative or len(active) == 1:
+            break
+        active.pop(min(negative)[1])
+    residual = target - design[:, active] @ values
+    dof = max(1, len(target) - len(active))
+    try:
+        covariance = np.linalg.inv(design[:, active].T @ design[:, active]) * float(residual @ residual) / dof
+        sigma = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    except np.linalg.LinAlgError:
+        sigma = np.full(len(active), np.nan)
+    result = {name: 0.0 for name in names}
+    sigmas = {}
+    for j, col in enumerate(active):
+        result[names[col]] = float(values[j])
+        sigmas[names[col]] = float(sigma[j])
+    return result, sigmas, residual
+
+
+def _soc_guess(chemistry, cell_voltage):
+    soc = np.interp(cell_voltage, chemistry.ocv, chemistry.soc_points)
+    return float(np.clip(soc, 0.02, 0.98))
+
+
+def _capacity_guess(logs, arrays, chemistry, soc0):
+    """Charge counted over the SOC change the voltages suggest, else the preset cell's."""
+    guesses = []
+    for log, a, start in zip(logs, arrays, soc0):
+        end = _soc_guess(chemistry, a.cell_voltage[-1])
+        charge_ah = float(np.sum(a.cell_current * a.dt)) / 3600.0
+        if abs(end - start) > 0.15 and charge_ah * (end - start) > 0:
+            guesses.append(charge_ah / (end - start))
+    if guesses:
+        return float(np.median(guesses))
+    throughput = max(float(np.sum(np.abs(a.cell_current) * a.dt)) / 3600.0 for a in arrays)
+    return max(chemistry.params.cell_capacity_ah, 1.2 * throughput)
+
+
+def increasing(values, step=1e-4):
+    """The closest strictly increasing sequence in the simple sense: each at least ``step`` above the last."""
+    values = np.array(values, dtype=float)
+    for k in range(1, len(values)):
+        values[k] = max(values[k], values[k - 1] + step)
+    return values
+
+
+def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest, fitted, kept, warnings):
+    p = chemistry.params
+    changes = {}
+    capacity = electrical.capacity_ah
+    cell_capacity = capacity / cells_parallel
+    changes['cell_capacity_ah'] = round(cell_capacity, 4)
+    fitted['cells_parallel'] = Fitted(cells_parallel, 'the pack capacity %.3g Ah over the preset cell\'s %.3g Ah '
+                                      '(only the pack figures are identified: parallel count x cell)'
+                                      % (capacity, p.cell_capacity_ah))
+    fitted['cell_capacity_ah'] = Fitted(changes['cell_capacity_ah'], 'coulomb counting against the OCV curve '
+                                        '(pack %.4g Ah)' % capacity,
+                                        electrical.uncertainty['capacity_ah'] / cells_parallel)
+    coefficients = dict((k, v) for k, v in electrical.coefficients.items())
+    source = 'current steps and relaxations'
+    if curve is not None:
+        for name, value in curve['resistances'].items():
+            coefficients[name] = (value, curve['sigmas'].get(name))
+        source += ', beside the learned OCV curve'
+    minimum = {'r0_ohm': 1e-5}
+    for name in ('r0_ohm', 'r1_ohm', 'r_fast_ohm'):
+        if name in kept:   # the preset's (kept says why)
+            continue
+        value, sigma = coefficients[name]
+        value = max(value, minimum.get(name, 0.0))
+        changes[name] = float('%.5g' % value)
+        fitted[name] = Fitted(changes[name], source + ' (per cell)', sigma)
+    for name in ('tau1_s', 'tau_fast_s'):
+        if name in kept:
+            continue
+        changes[name] = float('%.4g' % getattr(electrical, name))
+        fitted[name] = Fitted(changes[name], 'the relaxations\' time constant', electrical.uncertainty[name])
+    if not electrical.use_tables and chemistry.table_soc is not None:
+        changes.update(resistance_soc=(), r0_soc_factor=(), r1_soc_factor=(), r_fast_soc_factor=())
+        fitted['resistance_soc'] = Fitted((), 'the preset\'s SOC factor tables fitted worse than none')
+    soc = np.asarray(chemistry.soc_points)
+    if curve is None:
+        offset, sigma = coefficients['offset']
+        if not has_rest:
+            kept['ocv_voltage_v'] = 'the preset\'s OCV without an offset: no rest in the logs (>= %.0f s at no ' \
+                                    'current) to read it from' % REST_S
+            volts = chemistry.ocv.copy()
+        else:
+            volts = chemistry.ocv + offset
+            fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, 'the rests\' voltages', sigma)
+    else:
+        knots, values = np.array(curve['knots'], dtype=float), curve['values']
+        knots[0] = 0.0 if knots[0] < 1e-4 else knots[0]          # a knot at the table's own end is that end
+        knots[-1] = 1.0 if knots[-1] > 1.0 - 1e-4 else knots[-1]
+        below, above = soc < knots[0] - 1e-4, soc > knots[-1] + 1e-4   # no point twice where they meet
+        # outside the covered range the preset's shape, its departure at the ends fading to none at 0 and 1
+        start = values[0] - np.interp(knots[0], soc, chemistry.ocv)
+        end = values[-1] - np.interp(knots[-1], soc, chemistry.ocv)
+        volts_below = chemistry.ocv[below] + start * soc[below] / knots[0]
+        volts_above = chemistry.ocv[above] + end * (1.0 - soc[above]) / max(1.0 - knots[-1], 1e-9)
+        soc = np.concatenate([soc[below], knots, soc[above]])
+        volts = np.concatenate([volts_below, values, volts_above])
+        preset_cv, curve_cv = curve['cv']
+        fitted['ocv_voltage_v'] = Fitted(
+            'learned at %d points over SOC %.2f-%.2f' % (len(knots), knots[0], knots[-1]),
+            'the logs\' voltages: blocks of the fitted part held out in turn were predicted to %.1f mV per cell '
+            'by the learned curve (smoothness %g%s), %.1f mV by the preset\'s shape; fitted %.1f mV; outside '
+            'the covered range the preset\'s shape, joined' % (
+                1000 * curve_cv, curve['smoothness'], ', the preset\'s hysteresis' if curve['gap'] else
+                ', no hysteresis', 1000 * preset_cv, 1000 * curve['rmse_v']))
+        warnings.append('the OCV curve is learned over SOC %.2f-%.2f only: outside it the %s shape is a guess, '
+                        'and so is the capacity (the SOC scale rests on that shape)' % (knots[0], knots[-1], p.name))
+    volts = increasing(volts)
+    changes['ocv_soc'] = tuple(float('%.5g' % s) for s in soc)
+    changes['ocv_voltage_v'] = tuple(float('%.5f' % v) for v in volts)
+    if curve is not None and not curve['gap']:
+        changes['ocv_charge_voltage_v'] = ()   # the learned curve fits best without the preset's hysteresis
+    elif p.ocv_charge_voltage_v:
+        gap = np.interp(soc, chemistry.soc_points, chemistry.gap)
+        changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in increasing(np.maximum(volts + gap, volts)))
+    # the charge voltage and the cut-off within the table
+    changes['cell_charge_voltage_v'] = float('%.5f' % min(p.cell_charge_voltage_v, volts[-1]))
+    changes['cell_cutoff_voltage_v'] = float('%.5f' % max(p.cell_cutoff_voltage_v, volts[0]))
+    if changes['cell_cutoff_voltage_v'] >= changes['cell_charge_voltage_v']:
+        raise FitError('the fitted OCV curve leaves no room between the cut-off and the charge voltage')
+    return changes

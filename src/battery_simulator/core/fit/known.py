@@ -1,0 +1,192 @@
+"""What the logs fix before any fit (no ROS): their units checked, the fitted part of each, whether it rests,
+and the charge they pin without the OCV's shape (Known: the capacity and starting SOCs from the logged
+percentage, or from a CC-CV charge's end and a cut-off)."""
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from battery_simulator.core.fit import FitError
+from battery_simulator.core.fit.circuit import counted_charge_ah
+
+#: a rest: |current| below this fraction of the log's largest (or REST_A) for at least REST_S
+REST_FRACTION, REST_A, REST_S = 0.02, 0.05, 120.0
+#: a charge: charging current for at least this long, s
+CHARGE_MIN_S = 120.0
+#: the logged percentage gives the capacity beside a learned OCV curve when it moves by this much
+PERCENTAGE_SPAN = 0.005
+#: a current this many amperes per volt of the battery (99th percentile) is no battery's: milliamperes
+MILLIAMPERES_PER_VOLT = 60.0
+#: a battery voltage above this is millivolts
+MILLIVOLTS_V = 1500.0
+#: a log whose largest current is below this C-rate while sampled this far apart has stamps in ms
+MILLISECONDS_C_RATE, MILLISECONDS_PERIOD_S = 0.01, 10.0
+#: how far a known capacity (log) or starting SOC may move in the fit
+KNOWN_SPREAD = 0.01
+
+
+@dataclass
+class Known:
+    """The charge the logs fix without the OCV's shape: the pack capacity and each log's starting SOC from
+    the logged percentage (a BMS's coulomb count), or from a full charge and a cut-off."""
+
+    capacity_ah: float = None      # pack
+    soc0: list = None              # per log, or None
+    full_at: list = None           # per log: the sample where a CC-CV charge ended (SOC 1), or None
+    source: str = ''
+
+    def starts(self, logs):
+        """Each log's starting SOC when the capacity and every start are fixed, else None."""
+        if self.capacity_ah is None:
+            return None
+        if self.soc0 is not None:
+            return self.soc0
+        if self.full_at is None or any(f is None for f in self.full_at):
+            return None
+        return [min(1.0, max(0.0, 1.0 - counted_charge_ah(log)[f] / self.capacity_ah))
+                for log, f in zip(logs, self.full_at)]
+
+    def thinned(self, steps):
+        full_at = None if self.full_at is None else [None if f is None else f // step
+                                                     for f, step in zip(self.full_at, steps)]
+        return replace(self, full_at=full_at)
+
+
+def known_charge(logs, masks):
+    """Known from the fitted part of the logs (all None where they fix nothing)."""
+    gauge = _percentage_capacity(logs, masks)
+    if gauge:
+        return Known(capacity_ah=gauge[0], soc0=gauge[1], source='the logged percentage against the counted charge')
+    full_at = [_full_charge_end(log, mask) for log, mask in zip(logs, masks)]
+    capacity = None
+    for log, mask, full in zip(logs, masks, full_at):
+        empty = _cutoff_end(log, mask)
+        if full is not None and empty is not None:
+            charge = counted_charge_ah(log)
+            capacity = abs(charge[full] - charge[empty])
+            break
+    if capacity is None and all(f is None for f in full_at):
+        return Known()
+    return Known(capacity_ah=capacity, full_at=full_at,
+                 source='a CC-CV charge\'s end (SOC 1)' + (' and a cut-off (SOC 0)' if capacity else ''))
+
+
+def _runs(flags):
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def _full_charge_end(log, mask):
+    """The last sample of the last CC-CV charge in the fitted part that tapered at constant voltage."""
+    i, v, t = log.current_a, log.voltage_v, log.time_s
+    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    found = None
+    for start, stop in _runs(mask & (i > threshold)):
+        if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
+            continue
+        peak, top = float(np.max(i[start:stop])), float(np.max(v[start:stop]))
+        tail = slice(start + (stop - start) * 3 // 4, stop)
+        if i[stop - 1] < 0.3 * peak and np.min(v[tail]) > top * 0.99:
+            found = stop - 1
+    return found
+
+
+def _cutoff_end(log, mask):
+    """The last sample of a lasting discharge in the fitted part that ended at the part's lowest voltage."""
+    i, v, t = log.current_a, log.voltage_v, log.time_s
+    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    lowest = float(np.min(v[mask]))
+    found = None
+    for start, stop in _runs(mask & (i < -threshold)):
+        if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
+            continue
+        end = min(stop, len(v) - 1)   # the last discharging sample's current flowed until this one
+        if min(v[stop - 1], v[end]) <= lowest * 1.01 and \
+                np.std(i[start:stop]) < 0.1 * abs(float(np.mean(i[start:stop]))):
+            found = end
+    return found
+
+
+def check_units(logs, masks):
+    """FitError naming the unit when a log's current looks like mA or its voltage like mV."""
+    for log, mask in zip(logs, masks):
+        volts = float(np.median(log.voltage_v[mask]))
+        if volts > MILLIVOLTS_V:
+            raise FitError('%s: the voltage looks like millivolts (median %.6g): the column must be in volts'
+                           % (log.name, volts))
+        amperes = float(np.percentile(np.abs(log.current_a[mask]), 99))
+        if amperes > MILLIAMPERES_PER_VOLT * volts:
+            raise FitError('%s: the current looks like milliamperes (%.6g at %.4g V; no battery gives %.0f A per '
+                           'volt): the column must be in amperes' % (log.name, amperes, volts, amperes / volts))
+
+
+def check_capacity(logs, masks, capacity_ah):
+    """FitError naming the unit when the capacity found makes every current a trickle in a log sampled
+    seconds apart: its stamps are milliseconds."""
+    amperes = max(float(np.percentile(np.abs(log.current_a[mask]), 99)) for log, mask in zip(logs, masks))
+    period = min(float(np.median(np.diff(log.time_s))) for log in logs)
+    if amperes < MILLISECONDS_C_RATE * capacity_ah and period >= MILLISECONDS_PERIOD_S:
+        raise FitError('%s: the time looks like milliseconds (samples %.4g apart, a %.4g Ah battery whose '
+                       'largest current is %.2g C): the time column must be in seconds'
+                       % (logs[0].name, period, capacity_ah, amperes / capacity_ah))
+
+
+def cutoff_warning(logs, masks, cells_series, changes, warnings):
+    lowest = min(float(np.min(log.voltage_v[mask])) for log, mask in zip(logs, masks)) / cells_series
+    cutoff = changes['cell_cutoff_voltage_v']
+    if lowest < cutoff:
+        warnings.append('the logs go below the cut-off: %.3f V per cell against %.3f V (the model disconnects the '
+                        'load there; a wrong chemistry or series count?)' % (lowest, cutoff))
+
+
+def fit_mask(log, holdout):
+    t = log.time_s
+    mask = t <= t[-1] * (1.0 - holdout) if holdout > 0 else np.ones(len(t), dtype=bool)
+    if mask.sum() < 10:
+        raise FitError('%s: too short to fit with %g held out: %d samples before the held-out part'
+                       % (log.name, holdout, mask.sum()))
+    return mask
+
+
+def log_has_rest(log, mask):
+    i, t = np.abs(log.current_a[mask]), log.time_s[mask]
+    still = i <= max(REST_A, REST_FRACTION * i.max())
+    # the longest run of still samples
+    best, start = 0.0, None
+    for k in range(len(i)):
+        if still[k]:
+            start = t[k] if start is None else start
+            best = max(best, t[k] - start)
+        else:
+            start = None
+    return best >= REST_S
+
+
+def preset_temperature(log, chemistry):
+    if log.temperature_c is not None:
+        return log.temperature_c
+    return np.full(len(log.time_s), chemistry.params.ambient_temperature_c)
+
+
+def _percentage_capacity(logs, masks):
+    """(pack capacity, starting SOC per log) from the logged percentage against the counted charge, where
+    every log has it and it moves by PERCENTAGE_SPAN in all; else None."""
+    rows, targets = [], []
+    for index, (log, mask) in enumerate(zip(logs, masks)):
+        if log.percentage is None:
+            return None
+        charge = counted_charge_ah(log)
+        use = mask & np.isfinite(log.percentage)
+        if use.sum() < 10:
+            return None
+        row = np.zeros((use.sum(), len(logs) + 1))
+        row[:, index] = 1.0
+        row[:, -1] = charge[use]
+        rows.append(row)
+        targets.append(log.percentage[use])
+    target = np.concatenate(targets)
+    if np.ptp(target) < PERCENTAGE_SPAN:
+        return None
+    values = np.linalg.lstsq(np.vstack(rows), target, rcond=None)[0]
+    if not values[-1] > 0 or not all(-0.02 <= v <= 1.02 for v in values[:-1]):
+        return None
+    return 1.0 / values[-1], [float(min(max(v, 0.0), 1.0)) for v in values[:-1]]

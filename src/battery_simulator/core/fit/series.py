@@ -1,0 +1,127 @@
+"""The series count (no ROS): every count the fitted part's voltage range allows for each candidate chemistry,
+scored by how well that chemistry's OCV shape fits the logs, on thinned copies of them."""
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from battery_simulator.core.fit import FitError
+from battery_simulator.core.fit.circuit import Chemistry, counted_charge_ah, log_arrays, regressors, state_of_charge
+from battery_simulator.core.fit.electrical import fit_electrical, non_negative_lstsq, parallel_count
+from battery_simulator.core.fit.known import preset_temperature
+from battery_simulator.core.parameter_rules import MAX_CELLS
+
+#: the series count is clear when the runner-up's fit is this many times worse than the best's
+SERIES_CLEAR = 1.5
+#: samples per log the series-count search looks at
+SEARCH_SAMPLES = 2500
+#: per-cell voltage a log of each chemistry can show beyond its cut-off and charge voltage (load, charge), V
+CELL_VOLTAGE_MARGIN = {'below': 0.45, 'above': 0.2}
+#: the series counts tried in full per chemistry (nearest its nominal voltage) when no percentage screens them
+FULL_FIT_CANDIDATES = 6
+#: another chemistry than the first (the preset given or Li-ion) is taken where its fit's RMSE is below this
+#: fraction of the first's: over a short span of SOC a flat curve and a sloped one can fit nearly alike
+CHEMISTRY_CLEAR = 0.7
+
+
+def series_count(logs, masks, candidates, known, cells_series, why, progress, warnings):
+    """(series count, why, chemistry name, chemistry params): every count the fitted part's voltage range
+    allows for each chemistry's cells, scored by the fit of that chemistry's OCV shape (no offset: the
+    level is what tells the counts apart) in pack volts."""
+    voltages = np.concatenate([log.voltage_v[mask] for log, mask in zip(logs, masks)])
+    low, high = float(np.percentile(voltages, 0.1)), float(np.percentile(voltages, 99.9))
+    short_logs, short_masks = [], []
+    for log, mask in zip(logs, masks):
+        step = max(1, len(log.time_s) // SEARCH_SAMPLES)
+        short_logs.append(_thinned(log, step))
+        short_masks.append(mask[::step])
+    short_known = known.thinned([max(1, len(log.time_s) // SEARCH_SAMPLES) for log in logs])
+    scores, tried = [], []
+    for name, params in candidates:
+        chemistry = Chemistry(params)
+        if cells_series:
+            counts = [cells_series]
+        else:
+            top = params.cell_charge_voltage_v + CELL_VOLTAGE_MARGIN['above']
+            bottom = params.cell_cutoff_voltage_v - CELL_VOLTAGE_MARGIN['below']
+            counts = list(range(max(1, math.ceil(high / top)), min(MAX_CELLS, int(low / bottom)) + 1))
+        if not counts:
+            continue
+        screened = short_known.starts(short_logs)
+        if screened is None and len(counts) > FULL_FIT_CANDIDATES:
+            nominal = float(np.interp(0.5, chemistry.soc_points, chemistry.ocv))
+            middle = float(np.median(voltages)) / nominal
+            counts = sorted(sorted(counts, key=lambda n: abs(n - middle))[:FULL_FIT_CANDIDATES])
+        tried.append('%s %s' % (name, _ranges(counts)))
+        for count in counts:
+            if screened is not None:
+                score = _screen(short_logs, short_masks, chemistry, count, short_known.capacity_ah, screened)
+            else:
+                temperatures = [preset_temperature(log, chemistry) for log in short_logs]
+                try:
+                    result = fit_electrical(short_logs, short_masks, chemistry, count, 1, temperatures, False,
+                                             None, max_evaluations=40, known=short_known)
+                    score = result.rmse_v * count
+                except FitError:
+                    continue
+            scores.append((score, count, name, params))
+        progress(0.02 + 0.2 * len(tried) / len(candidates), 'series count')
+    if not scores:
+        raise FitError('no series count of %s cells fits the voltage range %.2f-%.2f V'
+                       % (' or '.join(name for name, _ in candidates), low, high))
+    scores.sort(key=lambda item: item[0])
+    firsts = [item for item in scores if item[2] == candidates[0][0]]
+    if firsts and firsts[0] is not scores[0] and not scores[0][0] < CHEMISTRY_CLEAR * firsts[0][0]:
+        scores.remove(firsts[0])   # another chemistry only where it fits clearly better than the first
+        scores.insert(0, firsts[0])
+    score, best, name, params = scores[0]
+    bests = {}
+    for item in scores:
+        bests.setdefault(item[2], item)
+    tried = ['%s (best %d: %.3g V)' % (text, bests[text.split()[0]][1], bests[text.split()[0]][0])
+             if text.split()[0] in bests else text for text in tried]
+    if why is None:
+        rivals = [item for item in scores[1:] if item[0] < SERIES_CLEAR * score and item[1] != best]
+        if rivals:
+            warnings.append('cells in series: %d fits best (%.3g V pack RMSE), but %d nearly as well (%.3g V); '
+                            '--cells-series settles it' % (best, score, rivals[0][1], rivals[0][0]))
+        why = ('the fitted part\'s voltage %.2f-%.2f V and the best fit of the OCV shape among %s cells%s'
+               % (low, high, '; '.join(tried), ' (the SOC from the logged percentage)'
+                  if known.soc0 is not None else ''))
+    return best, why, name, params
+
+
+def _ranges(counts):
+    return '%d' % counts[0] if len(counts) == 1 else '%d-%d' % (counts[0], counts[-1])
+
+
+def _screen(logs, masks, chemistry, count, capacity_ah, soc0):
+    """Pack-volt RMSE of the chemistry's OCV shape plus resistances (least squares, preset time constants)
+    with the SOC the logged percentage gives, for ``count`` cells in series."""
+    p = chemistry.params
+    parallel = parallel_count(capacity_ah, p.cell_capacity_ah)
+    rows, targets = [], []
+    for k, (log, mask) in enumerate(zip(logs, masks)):
+        a = log_arrays(log, chemistry, count, parallel)
+        soc = state_of_charge(a, capacity_ah / parallel, soc0[k], p.coulombic_efficiency)
+        x0, _, xf = regressors(a, soc, chemistry.arrhenius(preset_temperature(log, chemistry)), chemistry,
+                               p.tau1_s, p.tau_fast_s, False)
+        rows.append(np.column_stack([x0[mask], xf[mask]]))
+        targets.append((a.cell_voltage - chemistry.ocv_at(soc, a.weight))[mask])
+    # no slow RC pair: over a drive its long memory would stand in for the OCV's slope, the very thing that
+    # tells the chemistries and the counts apart
+    _, _, residual = non_negative_lstsq(np.vstack(rows), np.concatenate(targets), ['r0_ohm', 'r_fast_ohm'])
+    return float(np.sqrt(np.mean(residual ** 2))) * count
+
+
+def _thinned(log, step):
+    copy = replace(log)
+    for name in ('time_s', 'voltage_v', 'current_a', 'temperature_c', 'percentage'):
+        value = getattr(log, name)
+        if value is not None:
+            setattr(copy, name, value[::step])
+    if step > 1:   # a thinned log's current: the mean over the new interval after each sample (the charge kept)
+        picked = counted_charge_ah(log)[::step] * 3600.0
+        span = np.diff(copy.time_s)
+        copy.current_a = np.concatenate([np.diff(picked) / np.where(span > 0, span, 1.0), [log.current_a[-1]]])
+    return copy
