@@ -31,9 +31,12 @@ class Lines:
             self.lines.append((level, args[0] % args[1:] if len(args) > 1 else args[0]))
         return write
 
-    info = progress = info_throttle = _add('info')
+    info = progress = info_throttle = transition = _add('info')
     warn = warn_throttle = _add('warn')
     error = error_throttle = _add('error')
+
+    def settle(self):
+        pass
 
 
 # -- one factory -------------------------------------------------------------------------------------------
