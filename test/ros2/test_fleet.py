@@ -14,6 +14,7 @@ import pytest
 
 from battery_simulator.action import BatterySim
 from battery_simulator.msg import BatteryFleetState
+from battery_simulator.srv import Predict
 from battery_simulator.ros2.fleet_host import PARAMETER_SERVICES_UP_TO
 from ros2_probe import DISCHARGING, LATCHED, NodeProcess, Probe, set_state, status_after
 
@@ -52,6 +53,11 @@ def test_fleet_of_ten_in_one_process(probe):
         for name, value in (('time_scale', -1.0), ('time_scale', 100.0), ('time_scale', 'abc'), ('charging', True)):
             refused = probe.set_parameter('/battery_fleet', name, value)
             assert not refused.successful and name in refused.reason, (name, value, refused)
+        # predict on a fleet robot (the fleet host's EventsExecutor takes no guard condition: the host ended at its
+        # first predict, 'Guard conditions not supported')
+        answer = probe.call(Predict, '/fleetbot6/battery_simulator/predict',
+                            Predict.Request(duration_s=[600.0], power_w=[10.0]))
+        assert answer.success and answer.feasible, answer
         assert len(process.output().splitlines()) < 40, 'a fleet does not log per level'
     finally:
         assert process.stop() == 0, process.output()

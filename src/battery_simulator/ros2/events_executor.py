@@ -21,6 +21,12 @@ def fleet_executor():
     return _EventsExecutor(EventsExecutor())
 
 
+def is_events_executor(executor):
+    """Whether ``executor`` is rclpy's EventsExecutor (``rclpy.experimental.EventsExecutor`` is a factory: the
+    instance's type is its C++ class), which takes timers and services but no guard conditions."""
+    return EventsExecutor is not None and type(executor).__name__ == 'EventsExecutor'
+
+
 #: what Kilted's EventsExecutor prints (Python's print, on stdout) for every timer of one clock past its 8th: each
 #: robot's action server holds a timer (rcl_action's goal expiry) on the host node's clock, so 1000 robots would
 #: print 2000 lines that say nothing to a user (it manages them in one ordered map: no cost per wake-up)

@@ -19,6 +19,8 @@ from battery_simulator.core import prediction_worker
 from battery_simulator.core.battery import MOTION_LOAD
 from battery_simulator.core.prediction import FIELDS, MAX_SEGMENTS, PredictionError, too_many_segments
 from battery_simulator.core.prediction_worker import Busy, WorkerFailed
+from battery_simulator.ros2.events_executor import is_events_executor
+from battery_simulator.ros2.startup import steady_clock
 from battery_simulator.srv import Predict
 
 #: predict's request queue: room for a burst between two takes of the executor (the pool's own bound)
@@ -45,11 +47,8 @@ class PredictionService:
         node.create_service(Predict, name, self._predict, qos_profile=PREDICT_QOS,
                             callback_group=self._predict_group)
         # the workers' answers are handed to the waiting requests in the executor's thread (rclpy's futures
-        # are not for other threads: completed there, some requests were never answered), woken by a guard
-        # condition made at the first predict (a fleet's executor waits on no more entities until one is asked)
-        self._answers = queue.SimpleQueue()
-        self._answers_ready = None
-        self._answers_lock = threading.Lock()
+        # are not for other threads: completed there, some requests were never answered), by the node's
+        # AnswerHandout, made at the first predict (a fleet's executor waits on no more entities until one is asked)
 
     async def _predict(self, request, response):
         """What the plan would do, from a copy of the battery brought to now (changes nothing), computed in
@@ -57,15 +56,15 @@ class PredictionService:
         model, behind_s = self.battery.model_for_prediction_pickled()
         arrays = tuple(_raw(getattr(request, name)) for name in FIELDS)
         answered = Future()
-        answers_ready = self._answers_guard()
+        handout = answer_handout(self.node, self._predict_group)
+        handout.asked()
 
         def ask():
             try:
                 answer = ('ok', _in_workers(self._key, model, behind_s, arrays, request.charge_to_percentage))
             except (PredictionError, Busy, WorkerFailed) as error:
                 answer = ('refused', str(error))
-            self._answers.put((answered, answer))
-            answers_ready.trigger()
+            handout.put(answered, answer)
         threading.Thread(target=ask, name='predict', daemon=True).start()
         kind, value = await answered
         if kind != 'ok':
@@ -80,20 +79,57 @@ class PredictionService:
         response.cut_off_at_s, response.charge_time_s = value.cut_off_at_s, value.charge_time_s
         return response
 
-    def _answers_guard(self):
-        with self._answers_lock:
-            if self._answers_ready is None:
-                self._answers_ready = self.node.create_guard_condition(self._hand_out_answers,
-                                                                       callback_group=self._predict_group)
-            return self._answers_ready
 
-    def _hand_out_answers(self):
+#: how often a polled handout looks for answers while a request waits, s
+ANSWER_POLL_S = 0.02
+_HANDOUTS = {}   # node -> its AnswerHandout
+_HANDOUTS_LOCK = threading.Lock()
+
+
+def answer_handout(node, group):
+    """The AnswerHandout of ``node`` (one a node: a fleet's robots share the host's), made at its first predict."""
+    with _HANDOUTS_LOCK:
+        if node not in _HANDOUTS:
+            _HANDOUTS[node] = AnswerHandout(node, group, polled=is_events_executor(node.executor))
+        return _HANDOUTS[node]
+
+
+class AnswerHandout:
+    """Hands the workers' answers (put from their threads) to the waiting requests in the executor's thread: woken
+    by a guard condition, or, under rclpy's EventsExecutor, which takes none ('Guard conditions not supported':
+    the fleet host ended at its first predict), by a timer that runs only while a request waits."""
+
+    def __init__(self, node, group, polled):
+        self._answers = queue.SimpleQueue()
+        self._waiting = 0   # requests asked and not answered (the executor's thread only)
+        if polled:
+            self._timer = node.create_timer(ANSWER_POLL_S, self._hand_out, callback_group=group, clock=steady_clock())
+            self._timer.cancel()
+            self._guard = None
+        else:
+            self._timer = None
+            self._guard = node.create_guard_condition(self._hand_out, callback_group=group)
+
+    def asked(self):
+        self._waiting += 1
+        if self._timer is not None and self._timer.is_canceled():
+            self._timer.reset()
+
+    def put(self, answered, answer):
+        self._answers.put((answered, answer))
+        if self._guard is not None:
+            self._guard.trigger()
+
+    def _hand_out(self):
         while True:
             try:
                 answered, answer = self._answers.get_nowait()
             except queue.Empty:
-                return
+                break
+            self._waiting -= 1
             answered.set_result(answer)
+        if self._timer is not None and self._waiting <= 0:
+            self._timer.cancel()
 
 
 def _raw(values):
