@@ -116,3 +116,14 @@ def test_a_robot_that_passed_the_centre_before_touching_still_connects():
     for x, vx in ((0.25, -0.3), (0.05, -0.3), (-0.05, -0.3), (-0.10, -0.3)):
         assert contact.update(x, 0.0, vx, 0.0) is None
     assert contact.update(-0.11, 0.0, 0.0, 0.0) is True
+
+
+def test_a_robot_that_stalled_on_its_way_in_connects_at_the_dock():
+    """A stall in the outer half of the radius closes the contact (the robot stands there); driving on in, it
+    was taken as leaving (moved more than LEAVING_M from where it touched), so at the dock it never connected
+    again and the ROS 2 demo stayed in GO_TO_DOCK for 150 s."""
+    contact = DockContact(DOCK[0], DOCK[1], RADIUS_M, MAX_SPEED)
+    assert contact.update(0.28, 0.0, -0.3, 0.0) is None           # driving in
+    assert contact.update(0.27, 0.0, 0.0, 0.0) is True            # a stall: it stands within the radius
+    assert contact.update(0.20, 0.0, -0.3, 0.0) is False          # on, faster than max_speed
+    assert contact.update(0.12, 0.0, 0.0, 0.0) is True, 'docked: the contact closes'

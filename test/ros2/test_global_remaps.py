@@ -81,7 +81,9 @@ def test_battery_sim_renamed_keeps_two_nodes(probe):
             '%s:\n%s' % (sorted(node_names(probe)), process.output())
         assert wait_until(lambda: status_publishers(probe, '/grsim/battery_status') == ['/grsim/battery_state_pub'],
                           10.0), status_publishers(probe, '/grsim/battery_status')
-        publishers = probe.node.get_publishers_info_by_topic('/grsim/battery_simulator/state')
-        assert [(p.node_namespace, p.node_name) for p in publishers] == [('/grsim', 'my_battery')], publishers
+        def state_publishers():   # discovery brings a node's name before all of its endpoints
+            return [(p.node_namespace, p.node_name)
+                    for p in probe.node.get_publishers_info_by_topic('/grsim/battery_simulator/state')]
+        assert wait_until(lambda: state_publishers() == [('/grsim', 'my_battery')], 10.0), state_publishers()
     finally:
         assert process.stop() == 0, process.output()

@@ -44,6 +44,7 @@ class DockContact:
         self._dock = dict(dock_x=dock_x, dock_y=dock_y, radius=radius, max_speed=max_speed)
         self.contact = False
         self._touched = None     # where the contact closed since the robot entered the radius (x, y)
+        self._touched_distance = None   # ... and its distance to the dock
         self._leaving = False    # it moved LEAVING_M away from there since: no contact until out of the radius
         self._distance = None    # the last pose's distance to the dock (within the radius)
 
@@ -58,14 +59,20 @@ class DockContact:
         if distance > self._dock['radius']:
             self._touched, self._leaving, self._distance = None, False, None
             return self._set(False)
-        if self._touched is not None and (
+        if self._touched is not None and self._touched_distance > 0.5 * self._dock['radius'] \
+                and distance < self._touched_distance - LEAVING_M:
+            # touched in the outer half (a stall on its way to the dock) and now closer in: approaching, not
+            # leaving; without this the robot never got the contact at the dock, and the ROS 2 demo stayed in
+            # GO_TO_DOCK (a robot that backs off its dock across the centre touched in the inner half: leaving)
+            self._touched, self._touched_distance, self._leaving = (x, y), distance, False
+        elif self._touched is not None and (
                 math.hypot(x - self._touched[0], y - self._touched[1]) > LEAVING_M
                 or (speed >= self._dock['max_speed'] and distance > self._distance + GROWING_M)):
             self._leaving = True
         self._distance = distance
         contact = in_contact(x, y, speed, **self._dock) and not self._leaving
         if contact and self._touched is None:
-            self._touched = (x, y)
+            self._touched, self._touched_distance = (x, y), distance
         return self._set(contact)
 
     def _set(self, contact):
