@@ -89,8 +89,8 @@ class TestFleet(unittest.TestCase):
                 for msg in self.status[name].since(seen[name]):
                     self.assertEqual(msg.power_supply_health, BatteryState.POWER_SUPPLY_HEALTH_GOOD, name)
                     self.assertEqual(msg.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING, name)
-            self.assertTrue(any(m.name == '/battery_fleet' and 'robot0: ' in m.msg and 'junk' in m.msg
-                                for m in self.log.since(0)), "robot0's bad mode logged under its name")
+            wait_for(lambda: any(m.name == '/battery_fleet' and 'robot0: ' in m.msg and 'junk' in m.msg
+                                 for m in self.log.since(0)), 10.0, "robot0's bad mode logged under its name")
         finally:
             rospy.set_param('/robot0/MyRobot/BatteryStatus', 0)
             inject('overheat', False)
