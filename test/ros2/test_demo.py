@@ -7,16 +7,17 @@ import time
 
 from std_msgs.msg import String
 
+from battery_simulator.robot.dock_contact import AT_DOCK_FRACTION, RADIUS_M
 from ros2_probe import LATCHED, NodeProcess, Probe
 
 CYCLE = ['PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK', 'PATROL']
 PHASE_LINE = re.compile(r'phase (\w+) at ([0-9.]+) %')
 #: battery_dock_contact's line at each change of the contact (the server's are 'charger contact: charger ...')
 CONTACT_LINE = re.compile(r'charger contact: (True|False)\b(?: \(at (-?[\d.]+), (-?[\d.]+)\))?')
-#: the inner half of the dock's contact radius (0.3 m): a contact there is the robot on its dock, also while it
-#: undocks (under load a late controller may back it off and bring it back over the dock); any contact on patrol,
-#: and one while undocking farther out, is away from the dock (issue 40 item 8)
-AT_DOCK_M = 0.15
+#: a contact on patrol, or while undocking outside the dock itself (robot/dock_contact.py AT_DOCK_FRACTION:
+#: under load a late controller may back the robot off and bring it back over the dock), is away from the
+#: dock (issue 40 item 8)
+AT_DOCK_M = AT_DOCK_FRACTION * RADIUS_M
 
 
 def away_from_dock(contact, phase):
@@ -25,6 +26,8 @@ def away_from_dock(contact, phase):
     if phase == 'UNDOCK' and contact.group(2) is not None:
         return math.hypot(float(contact.group(2)), float(contact.group(3))) > AT_DOCK_M
     return True
+
+
 CYCLE_TIMEOUT_S = 150.0
 LOW = 25.0
 

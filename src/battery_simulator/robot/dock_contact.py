@@ -22,10 +22,14 @@ from battery_simulator.core.parameter_rules import is_number
 REPEAT_PERIOD_S = 0.5   # ROS time between repeats of the contact (at least once a second)
 LEAVING_M = 0.05        # moved farther than this from where it touched the contacts: the robot is leaving
 GROWING_M = 1e-6        # or moving, its distance to the dock grown by more than this since the last pose
+RADIUS_M = 0.3          # the contact radius by default
+#: the inner half of the radius is the dock itself (patrol_and_dock stops 0.15 m from it): a touch farther out
+#: is a stop on the way in, and a contact there while undocking is away from the dock (the demo tests)
+AT_DOCK_FRACTION = 0.5
 SETTINGS = (
     Setting('dock_x', 0.0, is_number, 'a number (m)', 'the dock in the odom frame, x (m)', False),
     Setting('dock_y', 0.0, is_number, 'a number (m)', 'the dock in the odom frame, y (m)', False),
-    Setting('radius', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m', 'contact within this distance, m',
+    Setting('radius', RADIUS_M, lambda v: is_number(v) and v > 0, 'a number > 0 m', 'contact within this distance, m',
             False),
     Setting('max_speed', 0.05, lambda v: is_number(v) and v > 0, 'a number > 0 m/s',
             'and slower than this, m/s', False),
@@ -59,7 +63,7 @@ class DockContact:
         if distance > self._dock['radius']:
             self._touched, self._leaving, self._distance = None, False, None
             return self._set(False)
-        if self._touched is not None and self._touched_distance > 0.5 * self._dock['radius'] \
+        if self._touched is not None and self._touched_distance > AT_DOCK_FRACTION * self._dock['radius'] \
                 and distance < self._touched_distance - LEAVING_M:
             # touched in the outer half (a stall on its way to the dock) and now closer in: approaching, not
             # leaving; without this the robot never got the contact at the dock, and the ROS 2 demo stayed in
