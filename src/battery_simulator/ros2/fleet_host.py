@@ -51,7 +51,7 @@ from battery_simulator.ros2.saved_state import NoStore
 from battery_simulator.ros2.battery_claims import BatteryClaim
 from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, descriptor,
                                             ending_quietly, exit_on_startup_error, explain_parameter_refusals, init,
-                                            own_node, parameter_name, run, steady_clock)
+                                            own_node, parameter_name, run, steady_clock, was_given)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher, diagnostics_publisher
 from battery_simulator.ros2.velocity import GraphTypes
 
@@ -82,7 +82,7 @@ class FleetSettings:
                                         defaults={'update_rate': FLEET_UPDATE_RATE_HZ})
         self.charging = declare_mode(node)
         self.publisher = read_publisher_settings(node)
-        staggered = not _given(node, 'initial_percentage')
+        staggered = not was_given(node, 'initial_percentage')
         first = declared['first']
         robots = declared['robots']
         if isinstance(robots, str):
@@ -104,11 +104,6 @@ class FleetSettings:
             self.configs = robot_configs(self.robots, load_yaml)
         except FleetError as error:
             raise StartupError(str(error)) from None
-
-
-def _given(node, name):
-    """Whether ``name`` was given on the command line (a parameter override), not defaulted."""
-    return name in node._parameter_overrides   # rclpy keeps no public view of the overrides
 
 
 class Robot:
@@ -168,7 +163,7 @@ def host_live_settings(node):
     robot of a shared-node fleet."""
     from battery_simulator.core.battery import LIVE_PARAMETERS
     return {name: node.declare_parameter(name, 0.0, _any('live battery setting of every robot (at start)')).value
-            for name in LIVE_PARAMETERS if _given(node, name)}
+            for name in LIVE_PARAMETERS if was_given(node, name)}
 
 
 class FleetHost:
@@ -219,11 +214,12 @@ class FleetHost:
                     "%s of %s is every robot's start-up value: set it on a robot (%s/battery_simulator %s%s)" % (
                         parameter.name, self._node.get_fully_qualified_name(), self.robots[0].name, parameter.name,
                         ', or call its set_charging' if parameter.name == ros_names.CHARGING_PARAM else '')))
-            if parameter.name == TIME_SCALE.name:
-                reasons = [robot.front.on_set_parameters([parameter]) for robot in self.robots]
-                refused = next((reason for reason in reasons if not reason.successful), None)
-                if refused is not None:
-                    return refused
+            if parameter.name == TIME_SCALE.name:   # one rule for every robot: the first one's answer is theirs
+                first = self.robots[0].front.on_set_parameters([parameter])
+                if not first.successful:
+                    return first
+                for robot in self.robots[1:]:
+                    robot.front.on_set_parameters([parameter])
         return SetParametersResult(successful=True)
 
     def _save(self):

@@ -143,10 +143,14 @@ def parameter_refusal(node, parameters):
     return None
 
 
+def was_given(node, name):
+    """Whether ``name`` was given on the command line (a parameter override), not defaulted."""
+    return name in node._parameter_overrides   # rclpy keeps no public view of the overrides
+
+
 def given_value(node, name):
-    """The value ``name`` was given on the command line (rclpy keeps no public view of its overrides)."""
-    override = node._parameter_overrides.get(name)
-    return None if override is None else override.value
+    """The value ``name`` was given on the command line (None: not given)."""
+    return node._parameter_overrides[name].value if was_given(node, name) else None
 
 
 def parameter_name(node, name):
