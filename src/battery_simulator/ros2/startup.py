@@ -36,6 +36,8 @@ FINISH_S = 1.5
 LINGER_S = 0.3
 #: the process ends at most this long after SIGINT or SIGTERM (the contract allows 2 s; the rest is margin)
 STOP_S = 1.5
+#: a process refused at start-up ends at most this long after its line (rcl's teardown cut short)
+STARTUP_EXIT_S = 1.0
 
 
 def own_node(name, namespace, **options):
@@ -159,16 +161,16 @@ def parameter_name(node, name):
 
 
 def exit_on_startup_error(error, logger=None):
-    """One fatal line (stderr, and the node's logger if any), then exit EXIT_BAD_PARAMETER."""
+    """One fatal line (stderr, and the node's logger if any), then exit EXIT_BAD_PARAMETER within
+    STARTUP_EXIT_S: left to the interpreter, rcl's teardown kept a refused duplicate running over 15 s on a busy
+    machine (a fresh-clone CI run)."""
     line = str(error)
     if logger is not None:
         logger.fatal(line)
     else:
         print('[FATAL] %s' % line, file=sys.stderr)
     sys.stderr.flush()
-    with contextlib.suppress(Exception):
-        rclpy.try_shutdown()
-    sys.exit(EXIT_BAD_PARAMETER)
+    end_process(EXIT_BAD_PARAMETER, time.monotonic() + STARTUP_EXIT_S)
 
 
 def init(args=None):
