@@ -17,6 +17,7 @@ import rospy
 import rostest
 from rosgraph_msgs.msg import Log
 
+from battery_simulator.core.node_settings import EXIT_STARTUP_ERROR
 from rostest_helpers import Recorder, node_command, stop_process, wait_for
 
 STARTUP_TIMEOUT_S = 60.0
@@ -91,7 +92,7 @@ class TestBadStartup(unittest.TestCase):
 
     def check_rejected(self, case, param, value, allowed):
         code, output = self.results[case]
-        self.assertNotEqual(code, 0, '%s exited 0:\n%s' % (case, output))
+        self.assertEqual(code, EXIT_STARTUP_ERROR, '%s exited %s, not %d:\n%s' % (case, code, EXIT_STARTUP_ERROR, output))
         fatal = [line for line in output.splitlines() if 'FATAL' in line]
         self.assertEqual(len(fatal), 1, 'one fatal line expected:\n%s' % output)
         self.assertIn(param, fatal[0])

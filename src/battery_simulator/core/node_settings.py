@@ -33,6 +33,9 @@ def _fraction(value):
 #: the largest time_scale: at the default 10 Hz one update then spans 1000 s of battery (a quarter of a
 #: discharge); beyond it a charge, a discharge or the pack's whole life would pass in a few updates, with
 #: no feedback, alarm or dock in between
+#: the exit status of a node refused at start-up (a bad value, a duplicate battery), on both ROS versions: the
+#: launch files respawn a process that crashed, never one that ended so
+EXIT_STARTUP_ERROR = 2
 MAX_TIME_SCALE = 10000.0
 
 

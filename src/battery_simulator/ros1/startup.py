@@ -9,6 +9,7 @@ import rosgraph
 import rospy
 
 from battery_simulator.core import ros_names
+from battery_simulator.core.node_settings import EXIT_STARTUP_ERROR
 from battery_simulator.core.parameter_rules import is_number, number_from_text, refusal
 from battery_simulator.core.state_file import StateFileError, check_state_file
 from battery_simulator.node_signals import end_nodes_on_signals
@@ -118,7 +119,7 @@ def signals_held():
 
 
 def init_node(name, read_settings):
-    """rospy.init_node(name), then read_settings(): its settings, or one fatal line and exit 1.
+    """rospy.init_node(name), then read_settings(): its settings, or one fatal line and exit 2 (EXIT_STARTUP_ERROR).
     SIGINT and SIGTERM are node_signals.py's (rospy's handler can hang a node that is starting)."""
     end_nodes_on_signals()
     try:
@@ -130,7 +131,7 @@ def init_node(name, read_settings):
         print('[FATAL] %s: parameter %s is invalid: an integer beyond 32 bits, which the parameter server cannot '
               'hold (give it as a float, e.g. 5e9)' % (name, ', '.join(too_large) or '(on the command line)'),
               file=sys.stderr)
-        sys.exit(1)
+        sys.exit(EXIT_STARTUP_ERROR)
     try:
         return read_settings()
     except StartupError as error:
@@ -138,7 +139,7 @@ def init_node(name, read_settings):
 
 
 def exit_on_startup_error(error, stop_launch=True):
-    """Log one fatal line, stop the launch that started this node (unless ``stop_launch`` is false), and exit 1.
+    """Log one fatal line, stop the launch that started this node (unless ``stop_launch`` is false), and exit 2 (EXIT_STARTUP_ERROR, as on ROS 2).
 
     A respawning node (the server) would otherwise be started again every
     respawn_delay and print the same line for ever: a bad value does not go
@@ -152,7 +153,7 @@ def exit_on_startup_error(error, stop_launch=True):
     sys.stderr.flush()
     if stop_launch:
         os.kill(launcher, signal.SIGINT)
-    sys.exit(1)
+    sys.exit(EXIT_STARTUP_ERROR)
 
 
 def _is_roslaunch(pid):

@@ -6,7 +6,7 @@ process that ends with the start-up exit status (2: its one fatal line said why)
 launch ends with that line, as ROS 1's sim.launch does. Any other end (a crash, SIGKILL) respawns after
 ``delay_s``; nothing respawns while the launch itself is shutting down.
 """
-EXIT_STARTUP_ERROR = 2   # ros2/startup.py's EXIT_BAD_PARAMETER: a bad start-up value or a duplicate battery
+from battery_simulator.core.node_settings import EXIT_STARTUP_ERROR   # a bad start-up value or a duplicate battery
 
 RESPAWN, END_LAUNCH, NOTHING = 'respawn', 'end the launch', 'nothing'
 

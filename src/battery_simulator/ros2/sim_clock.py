@@ -21,7 +21,8 @@ from rclpy.time import Time
 
 from battery_simulator.core import ros_names
 from battery_simulator.robot import clock as rule
-from battery_simulator.ros2.startup import EXIT_BAD_PARAMETER, run_node, steady_clock
+from battery_simulator.core.node_settings import EXIT_STARTUP_ERROR
+from battery_simulator.ros2.startup import run_node, steady_clock
 
 
 FINISH_JOIN_S = 1.0   # the longest a stop waits for the clock's thread to end
@@ -134,7 +135,7 @@ class SimClock:
             except rule.ClockTooFar:
                 log.fatal(rule.too_far_line('start'))
                 sys.stderr.flush()
-                os._exit(EXIT_BAD_PARAMETER)
+                os._exit(EXIT_STARTUP_ERROR)
             if self._pace.topics:
                 self._wait_for_pace()
             self._pub.publish(clock_msg(now))

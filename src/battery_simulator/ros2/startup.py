@@ -25,11 +25,10 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
-from battery_simulator.core.node_settings import SettingError, check_setting
+from battery_simulator.core.node_settings import EXIT_STARTUP_ERROR, SettingError, check_setting
 from battery_simulator.core.parameter_rules import number_from_text, refusal
 from battery_simulator.ros2.rcl_args import rcl_problem
 
-EXIT_BAD_PARAMETER = 2
 #: after a stop signal, the executor runs this long at most for the goals' results to be sent
 FINISH_S = 1.5
 #: ... and this long after they have gone, so that DDS delivers them before the process ends
@@ -161,7 +160,7 @@ def parameter_name(node, name):
 
 
 def exit_on_startup_error(error, logger=None):
-    """One fatal line (stderr, and the node's logger if any), then exit EXIT_BAD_PARAMETER within
+    """One fatal line (stderr, and the node's logger if any), then exit EXIT_STARTUP_ERROR within
     STARTUP_EXIT_S: left to the interpreter, rcl's teardown kept a refused duplicate running over 15 s on a busy
     machine (a fresh-clone CI run)."""
     line = str(error)
@@ -170,7 +169,7 @@ def exit_on_startup_error(error, logger=None):
     else:
         print('[FATAL] %s' % line, file=sys.stderr)
     sys.stderr.flush()
-    end_process(EXIT_BAD_PARAMETER, time.monotonic() + STARTUP_EXIT_S)
+    end_process(EXIT_STARTUP_ERROR, time.monotonic() + STARTUP_EXIT_S)
 
 
 def init(args=None):
@@ -240,7 +239,7 @@ def run(executor, finish, claim=None):
     """Spin until SIGINT or SIGTERM (or until ``claim`` is lost); then ``finish()`` (ends the goals, saves;
     returns a function telling whether every goal's result has gone) and spin until it is true, at most
     FINISH_S; then the process ends (``end_process``) within STOP_S of the signal: exit 0, or
-    EXIT_BAD_PARAMETER for a lost claim. Never returns."""
+    EXIT_STARTUP_ERROR for a lost claim. Never returns."""
     stop = _stop_future(executor)
     if claim is not None:
         claim.on_lost = lambda: stop.done() or stop.set_result(time.monotonic()) or executor.wake()
@@ -260,7 +259,7 @@ def run(executor, finish, claim=None):
                 executor.spin_once(timeout_sec=0.05)
     if claim is not None:
         claim.release()
-    end_process(EXIT_BAD_PARAMETER if claim is not None and claim.lost is not None else 0, stopped_at + STOP_S)
+    end_process(EXIT_STARTUP_ERROR if claim is not None and claim.lost is not None else 0, stopped_at + STOP_S)
 
 
 def end_process(code, by):
