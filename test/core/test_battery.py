@@ -160,7 +160,7 @@ def test_set_state_and_reset():
     b, _, log = battery()
     assert b.set_state(30.0, NAN, NAN) == 'state set'
     assert b.record().percentage == pytest.approx(0.30)
-    with pytest.raises(BatteryError, match='percentage/100'):
+    with pytest.raises(BatteryError, match=r'percentage = 130.0 is invalid: must be in \[0, 100\] %'):
         b.set_state(130.0)
     with pytest.raises(BatteryError, match='state_of_health'):
         b.set_state(NAN, NAN, 0.001)

@@ -363,13 +363,15 @@ class Battery:
         def given(value):
             return None if value is None or (isinstance(value, float) and math.isnan(value)) else value
         percentage = given(percentage)
+        if percentage is not None and not (is_number(percentage) and 0.0 <= percentage <= 100.0):
+            raise BatteryError('percentage = %r is invalid: must be in [0, 100] %%' % (percentage,))
         gauge_error = None if given(gauge_error) in (None, 0, 0.0) else gauge_error
         try:
             with self.lock:
                 self.model.set_state(None if percentage is None else percentage / 100.0,
                                      given(temperature_c), given(state_of_health), gauge_error)
         except (ValueError, TypeError) as error:
-            raise BatteryError(str(error).replace('state_of_charge', 'percentage/100')) from None
+            raise BatteryError(str(error)) from None
         return 'state set'
 
     def reset(self):
