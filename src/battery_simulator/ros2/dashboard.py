@@ -51,8 +51,8 @@ from std_srvs.srv import SetBool
 
 from battery_simulator.msg import BatteryFleetState, BatterySimState
 from battery_simulator.ros2.rcl_args import init_rclpy
-from battery_simulator.ros2.startup import (StartupError, declare_settings, ending_quietly, exit_on_startup_error,
-                                            parameter_name, steady_clock)
+from battery_simulator.ros2.startup import (STOP_S, StartupError, declare_settings, end_process, ending_quietly,
+                                            exit_on_startup_error, parameter_name, steady_clock)
 from battery_simulator.srv import InjectFault, SetState
 from battery_simulator.web.dashboard_app import (SERVICE_OK, SERVICE_REFUSED, SERVICE_UNREACHABLE, Hub,
                                                 bridge_tornado_logs, chart_library_problem, make_app, server_options,
@@ -302,13 +302,14 @@ def main(args=None):
         node.get_logger().info(ready_line(node.settings))
         try:
             loop.start()
-        finally:   # the executor's thread ended before the node goes (else the process aborts at exit)
-            executor.shutdown(timeout_sec=2.0)
-            levels_executor.shutdown(timeout_sec=2.0)
-            spinner.join(2.0)
-            levels_spinner.join(2.0)
-            node.levels.destroy_node()
-            node.destroy_node()
+        except KeyboardInterrupt:   # SIGINT or SIGTERM (ending_quietly's handler)
+            pass
+        # the executors stopped, then the process ends by end_process (rcl's teardown bounded, os._exit): nodes
+        # destroyed here while a spinner, late on a busy machine, still waited in rcl ended it with SIGSEGV
+        stopped_at = time.monotonic()
+        executor.shutdown(timeout_sec=0.5)
+        levels_executor.shutdown(timeout_sec=0.5)
+        end_process(0, stopped_at + STOP_S)
 
 
 def _spin(executor):
