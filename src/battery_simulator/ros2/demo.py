@@ -36,11 +36,10 @@ from pathlib import Path
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from battery_simulator.core import ros_names
 from battery_simulator.core.config_files import default_config_path
 from battery_simulator.robot import base, dock_contact, patrol
 from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s
-from battery_simulator.robot.demo_settings import SETTINGS, START_X_M
+from battery_simulator.robot.demo_settings import CLOCK_PACE_ON, SETTINGS, START_X_M
 from battery_simulator.ros2.one_battery import OneBattery
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
@@ -95,7 +94,7 @@ class Demo:
         """Each node's role (StartupError for a bad setting); the clock starts with ``clock.start()``."""
         settings = self.settings
         self.clock = SimClock(self.clock_node, settings['speed'], 0.0, settings['tick_hz'], start_now=False,
-                              pace_on=[ros_names.CMD_VEL])
+                              pace_on=list(CLOCK_PACE_ON))
         self.battery = OneBattery(self.battery_node, self.status_node)
         self.base = FakeBase(self.base_node, **read_settings(self.base_node, base.SETTINGS))
         self.contact = DockContact(self.contact_node, **read_settings(self.contact_node, dock_contact.SETTINGS))
