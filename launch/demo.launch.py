@@ -14,7 +14,8 @@ from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription, Opaq
 from launch.launch_description_sources import PythonLaunchDescriptionSource
 from launch_ros.actions import Node
 
-from battery_simulator.robot.demo_settings import CLOCK_WAIT_FOR as WAIT_FOR, START_X_M, launch_default
+from battery_simulator.robot.demo_settings import CLOCK_PACE_ON, CLOCK_WAIT_FOR as WAIT_FOR, START_X_M, \
+    launch_default
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 #: the demo's arguments; the defaults of battery_demo's settings are robot/demo_settings.py's
@@ -55,6 +56,7 @@ def _actions(context):
     actions = [IncludeLaunchDescription(PythonLaunchDescriptionSource(os.path.join(HERE, 'sim.launch.py')),
                                         launch_arguments={
         'namespace': ns, 'speed': values['speed'], 'tick_hz': values['tick_hz'], 'clock_wait_for': CLOCK_WAIT_FOR,
+        'clock_pace_on': ','.join(CLOCK_PACE_ON),
         'initial_percentage': values['initial_percentage'], 'config': config_path(values), 'rate': values['rate'],
         'low_percentage': values['low_percentage']}.items())]
     if values['dashboard'].lower() in ('true', '1'):

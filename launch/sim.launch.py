@@ -34,6 +34,8 @@ ARGUMENTS = (
     ('speed', '', 'Run on sim_clock this many times as fast as wall time (use_sim_time); empty: wall time.'),
     ('tick_hz', '1000', 'With speed: /clock ticks per wall second.'),
     ('clock_wait_for', '', 'With speed: topics (comma-separated) that must have a publisher before time runs.'),
+    ('clock_pace_on', '', 'With speed: topics (comma-separated) each tick waits for a message on (at most 0.5 s '
+                          "of wall time; demo.launch.py: the robot's cmd_vel)."),
 )
 
 
@@ -46,6 +48,9 @@ def sim_nodes(values):
         wait_for = [topic.strip() for topic in values['clock_wait_for'].split(',') if topic.strip()]
         if wait_for:   # (a parameters file holds no empty list)
             clock['wait_for'] = wait_for
+        pace_on = [topic.strip() for topic in values['clock_pace_on'].split(',') if topic.strip()]
+        if pace_on:
+            clock['pace_on'] = pace_on
         nodes.append(Node(package='battery_simulator', executable='sim_clock', name='sim_clock',
                           namespace=values['namespace'], output='screen', parameters=[clock]))
     battery = {

@@ -1,5 +1,6 @@
 """The demo's settings live once, in robot/demo_settings.py (issue 41): battery_demo takes them, demo.launch.py
 reads its defaults from them, and demo.launch (roslaunch XML, which cannot import Python) spells the same."""
+import re
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
@@ -37,5 +38,14 @@ def test_one_tick_rate_for_every_demo():
 
 def test_the_ros2_demo_takes_them():
     demo = (Path(demo_settings.__file__).parents[1] / 'ros2' / 'demo.py').read_text()
-    assert 'from battery_simulator.robot.demo_settings import SETTINGS' in demo
+    assert re.search(r'from battery_simulator\.robot\.demo_settings import [\w, ]*\bSETTINGS\b', demo)
     assert 'Setting(' not in demo, 'battery_demo declares a setting of its own'
+
+
+def test_demo_launch_paces_its_clock_on_the_robots_commands():
+    """demo.launch's sim_clock waits at every tick for the topics of CLOCK_PACE_ON, as battery_demo's and
+    demo.launch.py's clocks (issue 40 items 8 and 15)."""
+    root = ElementTree.parse(LAUNCH / 'demo.launch').getroot()
+    sim = next(include for include in root.findall('include') if 'sim.launch' in include.get('file'))
+    pace_on = {arg.get('name'): arg.get('value') for arg in sim.findall('arg')}['clock_pace_on']
+    assert [topic.strip() for topic in pace_on.strip('[]').split(',')] == list(demo_settings.CLOCK_PACE_ON)

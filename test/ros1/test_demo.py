@@ -37,6 +37,18 @@ def away_from_dock(contact, phase):
     return True
 LOW = 50.0
 CYCLE_TIMEOUT_S = 90.0
+#: what a failure shows of the demo's output: its phases, the contact and charger lines, the clock's, every
+#: warning and error (the whole output is thousands of lines)
+RELEVANT_LINE = re.compile(r'phase \w+ at|charger contact|charger (dis)?connected|sim_clock|'
+                           r'WARN|ERROR|FATAL|Traceback|Error')
+RELEVANT_LINES_SHOWN = 80
+
+
+def relevant(lines):
+    """The lines a failure shows after its reason (the first 20 and the last 60 when there are more)."""
+    if len(lines) > RELEVANT_LINES_SHOWN:
+        lines = lines[:20] + ['... (%d lines left out)' % (len(lines) - RELEVANT_LINES_SHOWN)] + lines[-60:]
+    return '\nthe demo\'s relevant lines:\n' + '\n'.join(lines)
 
 
 def free_port():
@@ -46,8 +58,9 @@ def free_port():
 
 
 def demo_phases(speed, tick_hz):
-    """[(phase, level %)] of one demo cycle at ``speed``, from patrol_and_dock's log lines, and the lines of
-    battery_dock_contact closing the contact while the phase was PATROL or UNDOCK (away from the dock)."""
+    """[(phase, level %)] of one demo cycle at ``speed``, from patrol_and_dock's log lines, the lines of
+    battery_dock_contact closing the contact while the phase was PATROL or UNDOCK (away from the dock), and the
+    output's relevant lines (RELEVANT_LINE) for a failure's message."""
     config = os.path.join(rospkg.RosPack().get_path('battery_simulator'), 'test', 'config', 'demo_test.yaml')
     port = free_port()
     demo = subprocess.Popen(
@@ -57,11 +70,14 @@ def demo_phases(speed, tick_hz):
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
     phases = []
     away = []   # the dock contact closing on patrol or while undocking (issue 40 item 8)
+    lines = []   # RELEVANT_LINE's
     started = time.monotonic()
 
     def read_phases():
         phase = None
         for line in demo.stdout:
+            if RELEVANT_LINE.search(line):
+                lines.append(line.strip())
             found = PHASE_LINE.search(line)
             if found:
                 phases.append((found.group(1), float(found.group(2))))
@@ -78,7 +94,7 @@ def demo_phases(speed, tick_hz):
     finally:
         stop_process(demo)
     reader.join(5.0)
-    return phases[:len(CYCLE)], away
+    return phases[:len(CYCLE)], away, relevant(lines)
 
 
 class TestDemo(unittest.TestCase):
@@ -86,14 +102,18 @@ class TestDemo(unittest.TestCase):
     def test_one_whole_cycle_with_the_same_outcome_at_two_speeds(self):
         docked = {}
         for speed, tick_hz in ((240, 400), (60, 100)):   # 0.6 s of ROS time a tick for both
-            phases, away = demo_phases(speed, tick_hz)
-            self.assertEqual([phase for phase, _ in phases], CYCLE, 'speed %g: %r' % (speed, phases))
-            self.assertEqual(away, [], 'speed %g: the dock contact closed away from the dock' % speed)
+            phases, away, lines = demo_phases(speed, tick_hz)
+            self.assertEqual([phase for phase, _ in phases], CYCLE, 'speed %g: phases within %g s: %r%s' % (
+                speed, CYCLE_TIMEOUT_S, phases, lines))
+            self.assertEqual(away, [], 'speed %g: the dock contact closed away from the dock: %s%s' % (
+                speed, away, lines))
             docked[speed] = dict(phases)['CHARGING']
             self.assertGreater(docked[speed], LOW - 3.0, 'speed %g docked at %.1f %%, more than 3 points under '
-                               'the low level: %r' % (speed, docked[speed], phases))
+                               'the low level: %r%s' % (speed, docked[speed], phases, lines))
             # UNDOCK follows the charge goal's "Full"; its logged level is the latest battery_status (2 Hz)
-            self.assertGreater(dict(phases)['UNDOCK'], 95.0, 'speed %g: charged to full' % speed)
+            self.assertGreater(dict(phases)['UNDOCK'], 95.0, 'speed %g: undocked before full: %r%s' % (
+                speed, phases, lines))
+            print('speed %g: %r' % (speed, phases))
         self.assertAlmostEqual(docked[60], docked[240], delta=3.0,
                                msg='docked at %.1f %% at speed 60, %.1f %% at 240' % (docked[60], docked[240]))
 

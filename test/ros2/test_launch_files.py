@@ -215,6 +215,7 @@ def test_the_launch_files_start_the_executables_and_parameters_of_their_ros1_twi
     assert demo['battery_sim'].kwargs['parameters'][0]['low_percentage'] == 0.25
     assert demo['battery_sim'].kwargs['parameters'][0]['initial_percentage'] == 40.0
     assert demo['sim_clock'].kwargs['parameters'][0]['speed'] == 60.0
+    assert demo['sim_clock'].kwargs['parameters'][0]['pace_on'] == ['cmd_vel'], 'paced on the robot, as demo.launch'
     assert demo['patrol_and_dock'].kwargs['parameters'][0]['speed'] == 0.3
     assert ('cmd_vel', 'cmd_vel_nav') in demo['patrol_and_dock'].kwargs['remappings']
     sim = nodes_of(LAUNCH / 'sim.launch.py')

@@ -18,6 +18,9 @@ START_X_M = 1.0
 #: ROS time starts once every node of the demo is up (sim_clock's wait_for): a slow start costs no battery
 CLOCK_WAIT_FOR = ('battery_simulator/state', 'battery_status', 'battery_low', 'odom', 'charger_contact', 'cmd_vel',
                   'patrol_and_dock/phase')
+#: each tick of the demo's clock waits for the robot's next command (sim_clock's pace_on, robot/clock.py's Pace):
+#: on a busy machine ROS time would otherwise run on while the controller is late and the robot stands
+CLOCK_PACE_ON = ('cmd_vel',)
 
 _SPEED = next(s for s in clock.SETTINGS if s.name == 'speed')
 SETTINGS = (

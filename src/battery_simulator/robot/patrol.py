@@ -1,6 +1,6 @@
 """The demo behaviour's rule (patrol_and_dock), without ROS: patrol a loop of waypoints, drive to the dock
-when the battery is low, charge on contact, back off the dock when full (after resting there
-``rest_on_dock`` seconds), patrol again.
+when the battery is low, charge on contact (standing on the dock DOCK_RETRY_S without it: back off and come
+again), back off the dock when full (after resting there ``rest_on_dock`` seconds), patrol again.
 
 ``Patrol.control`` is one control step: the pose, the inputs and the ROS time a command holds in, the
 (linear, angular) command out; no command drives or turns past its goal within one step. The front ends
@@ -17,6 +17,11 @@ PHASES = (PATROL, GO_TO_DOCK, CHARGING, UNDOCK)
 CONTROL_RATE_HZ = 20.0
 ARRIVED_M = 0.08          # a waypoint counts as reached within this distance (or half a step's drive)
 DOCKED_M = 0.15           # stop this close to the dock: well inside battery_dock_contact's radius (0.3 m)
+#: standing on the dock this long (ROS time, s) without the contact: back off ``undock_distance`` (out of the
+#: contact's radius) and come again. The contact closes a step or two after the robot stops; a robot that crossed
+#: the dock on its way in (a late controller) is "leaving" to battery_dock_contact until it is out of the radius,
+#: and stood there for good: the ROS 2 demo at speed 240 under two CPU hogs ran its battery empty on the dock
+DOCK_RETRY_S = 10.0
 MAX_TURN_RADPS = 1.5
 DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
 #: the same as ROS 2 takes it (its parameters hold no list of lists)
@@ -45,7 +50,7 @@ SETTINGS = (
     Setting('dock_y', 0.0, is_number, 'a number (m)', 'the dock, y (m)', False),
     Setting('speed', 0.3, lambda v: is_number(v) and v > 0, 'a number > 0 m/s', 'cruising speed, m/s', False),
     Setting('undock_distance', 0.6, lambda v: is_number(v) and v > 0, 'a number > 0 m',
-            'how far to back off the dock, m', False),
+            'how far to back off the dock (when full, or to dock again without a contact), m', False),
     Setting('rest_on_dock', 0.0, lambda v: is_number(v) and 0 <= v <= 86400, 'a number in [0, 86400] s',
             'how long to stay on the dock once full (ROS time, s): the charger carries the robot, the pack '
             'rests (a fuel gauge reads its rest there)', False),
@@ -125,6 +130,8 @@ class Patrol:
         self.phase = None
         self.next_waypoint = 0
         self.undock_from = None   # UNDOCK's goal (undock_goal)
+        self.on_dock_s = 0.0      # GO_TO_DOCK: how long the robot has stood on the dock without the contact
+        self.dock_again_from = None   # GO_TO_DOCK: where it backs off to before coming again (DOCK_RETRY_S)
 
     def enter(self, phase):
         self.phase = phase
@@ -139,6 +146,7 @@ class Patrol:
         x, y, yaw = pose
         if self.phase == PATROL:
             if low:
+                self.on_dock_s, self.dock_again_from = 0.0, None
                 self.enter(GO_TO_DOCK)
                 return 0.0, 0.0
             goal = self.waypoints[self.next_waypoint]
@@ -150,8 +158,19 @@ class Patrol:
                 self._send_charge_goal()
                 self.enter(CHARGING)
                 return 0.0, 0.0
+            if self.dock_again_from is not None:   # no contact on the dock: backing off before coming again
+                if math.hypot(self.dock_again_from[0] - x, self.dock_again_from[1] - y) >= ARRIVED_M:
+                    return back_to(x, y, yaw, self.dock_again_from[0], self.dock_again_from[1], 0.5 * self.speed,
+                                   step_s)
+                self.dock_again_from = None
             if math.hypot(self.dock[0] - x, self.dock[1] - y) < DOCKED_M:
-                return 0.0, 0.0   # on the dock: stand still until the contact closes
+                self.on_dock_s += step_s   # on the dock: stand still until the contact closes
+                if self.on_dock_s >= DOCK_RETRY_S:
+                    self.on_dock_s = 0.0
+                    self.dock_again_from = undock_goal(x, y, yaw, self.dock[0], self.dock[1], self.undock_distance,
+                                                       self.waypoints[0])
+                return 0.0, 0.0
+            self.on_dock_s = 0.0
             return drive_to(x, y, yaw, self.dock[0], self.dock[1], self.speed, step_s)
         if self.phase == CHARGING:
             if goal_outcome == GOAL_SUCCEEDED and self.rested_s is None:   # told again at every step: once

@@ -9,6 +9,16 @@ node on ``use_sim_time``. The robot patrols, heads for the dock when battery_low
 backs off and patrols again; each phase is logged with the level and published on
 ``patrol_and_dock/phase``.
 
+The clock is paced on the robot's ``cmd_vel`` as demo.launch's (robot/clock.py's Pace): each tick waits (at most
+0.5 s of wall time) for the robot's command since the last one, so ROS time never runs ahead of the controller.
+Unpaced, at speed 240 a controller a few wall milliseconds late left the robot standing (its command timed out)
+while the battery drained, or stopped inside the dock's radius on patrol: test_demo failed 3 of 5 runs (docked
+at 20.2 % against 25 %, the contact closed on patrol at (0.10, 0.23), and once the robot passed over the dock,
+never got the contact and ran empty). The nodes spin on rclpy's EventsExecutor (events_executor.py): the
+SingleThreadedExecutor rebuilds its wait set over every entity of the eight nodes at each wake-up, and paced on
+it the clock ran so slowly under two CPU hogs that a cycle took over 150 s (a7117c1); on the EventsExecutor the
+paced demo keeps its 250 ticks a second on a quiet machine.
+
 :Parameters of battery_demo (demo.launch's arguments; robot/demo_settings.py SETTINGS):
   - ``speed`` (0 < s <= 10000, default 60): ROS time runs this many times as fast as wall time
   - ``tick_hz`` (Hz, default 250, as demo.launch's): clock ticks per wall second (0.24 s of ROS time a tick at
@@ -23,17 +33,17 @@ backs off and patrols again; each phase is logged with the level and published o
 """
 from pathlib import Path
 
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from battery_simulator.core.config_files import default_config_path
 from battery_simulator.robot import base, dock_contact, patrol
 from battery_simulator.robot.demo_gauges import GAUGE_CONFIGS, rest_on_dock_s
-from battery_simulator.robot.demo_settings import SETTINGS, START_X_M
+from battery_simulator.robot.demo_settings import CLOCK_PACE_ON, SETTINGS, START_X_M
 from battery_simulator.ros2.one_battery import OneBattery
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
+from battery_simulator.ros2.events_executor import fleet_executor
 from battery_simulator.ros2.fake_base import FakeBase
 from battery_simulator.ros2.patrol_and_dock import ROS2_DEFAULTS, PatrolAndDock
 from battery_simulator.ros2.sim_clock import SimClock
@@ -83,7 +93,8 @@ class Demo:
     def start_roles(self):
         """Each node's role (StartupError for a bad setting); the clock starts with ``clock.start()``."""
         settings = self.settings
-        self.clock = SimClock(self.clock_node, settings['speed'], 0.0, settings['tick_hz'], start_now=False)
+        self.clock = SimClock(self.clock_node, settings['speed'], 0.0, settings['tick_hz'], start_now=False,
+                              pace_on=list(CLOCK_PACE_ON))
         self.battery = OneBattery(self.battery_node, self.status_node)
         self.base = FakeBase(self.base_node, **read_settings(self.base_node, base.SETTINGS))
         self.contact = DockContact(self.contact_node, **read_settings(self.contact_node, dock_contact.SETTINGS))
@@ -94,7 +105,7 @@ class Demo:
     def finish(self):
         """At a stop signal: the clock stops, the battery's goal ends and its state is saved."""
         if self.clock is not None:
-            self.clock.stop()
+            self.clock.finish()
         return self.battery.finish() if self.battery is not None else (lambda: True)
 
 
@@ -109,7 +120,7 @@ def main(args=None):
                 unknown[0], demo_node.get_fully_qualified_name(), ', '.join(s.name for s in SETTINGS))),
                 demo_node.get_logger())
         demo = Demo(demo_node, settings)
-        executor = SingleThreadedExecutor()
+        executor = fleet_executor()
         for node in demo.nodes:
             executor.add_node(node)
         claim = BatteryClaim(demo.battery_node, [demo.battery_node.get_namespace()],
