@@ -70,11 +70,9 @@ class NodeProcess:
 
 
 class Probe:
-    """A node in the test process, spun in a thread of its own. With ``pause_s``, the thread pauses that long after
-    each callback it runs, as a client on a busy machine does (a probe of 40 clients under two CPU hogs: 1.5 ms a
-    response taken, against 0.1 ms quiet)."""
+    """A node in the test process, spun in a thread of its own."""
 
-    def __init__(self, name='battery_test_probe', pause_s=0.0):
+    def __init__(self, name='battery_test_probe'):
         if not rclpy.ok():
             rclpy.init()
         self.node = Node(name)
@@ -82,22 +80,11 @@ class Probe:
         self._executor.add_node(self.node)
         self._lock = threading.Lock()
         self._subscriptions = {}
-        self._closed = threading.Event()
-        self._thread = threading.Thread(target=self._spin, args=(pause_s,), daemon=True)
+        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
 
-    def _spin(self, pause_s):
-        if not pause_s:
-            self._executor.spin()
-            return
-        while not self._closed.is_set() and self._executor.context.ok():
-            self._executor.spin_once(timeout_sec=0.1)
-            time.sleep(pause_s)
-
     def close(self):
-        self._closed.set()
         self._executor.shutdown()
-        self._thread.join(5.0)
         self.node.destroy_node()
 
     def follow(self, topic, msg_type, qos=RELIABLE):

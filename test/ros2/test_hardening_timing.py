@@ -274,22 +274,17 @@ def one_hour_plan():
                            charge_to_percentage=math.nan)
 
 
-#: the forty clients' process takes its responses as a busy machine's does (see ros2_probe.Probe)
-CLIENTS_PAUSE_S = 0.0015
-
-
 def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
     """40 clients of one process ask one battery for one-hour plans at once: each is answered within 10 s, with the
-    plan's answer or busy (success false, a message saying so). The clients take their responses as on a busy
-    machine (1.5 ms each): rmw_fastrtps delivers every response of the service to every client, and a client's
-    response queue keeps the last 10. Before: 11 answered, 29 never (the service's request queue kept the last 10);
-    then 29-39 of 40 (the server sent them all, the refusals in one burst: each client kept the last 10)."""
+    plan's answer or busy (success false, a message saying so). rmw_fastrtps delivers every response of the service
+    to every client, and a client's response queue keeps the last 10. Before: 11 answered, 29 never (the service's
+    request queue kept the last 10); then 29-39 of 40 (the server sent them all, the refusals in one burst: a client
+    kept the last 10)."""
     process = NodeProcess('battery_sim', '-r', '__ns:=/forty')
-    asker = Probe('forty_clients', pause_s=CLIENTS_PAUSE_S)
     clients = []
     try:
         started(probe, '/forty', process)
-        clients = [asker.node.create_client(Predict, '/forty/battery_simulator/predict')
+        clients = [probe.node.create_client(Predict, '/forty/battery_simulator/predict')
                    for _ in range(PREDICTS_AT_ONCE)]
         assert all(client.wait_for_service(timeout_sec=10.0) for client in clients), 'predict not served'
         # wait_for_service sees the server's request reader; the server's response writer may not have matched a
@@ -321,8 +316,7 @@ def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
         print('forty: %s, the last answered at %.2f s' % (kinds, max(answered_at.values())))
     finally:
         for client in clients:
-            asker.node.destroy_client(client)
-        asker.close()
+            probe.node.destroy_client(client)
         stop_all(process)
 
 

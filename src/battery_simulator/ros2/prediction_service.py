@@ -16,7 +16,8 @@ before it took it (measured: the server sent all 80 responses of the forty
 test, the probe got 29-39 of 40; a client that takes nothing until all are
 sent gets exactly 10). Spaced, a client that takes its responses every 0.1 s
 loses none. No answer waits for its turn past ANSWER_BY_S after its request
-came, so every request is still answered within 10 s.
+was taken (when more wait than would go by then, they are spread over the time
+left), so every request is still answered within 10 s.
 """
 import copy
 import math
@@ -102,9 +103,10 @@ ANSWER_POLL_S = 0.02
 #: one service's answers go at least this far apart (s): a client of it that takes its responses at least every
 #: 0.1 s loses none with the default response queue (10), however many ask at once (see the module's docstring)
 ANSWER_GAP_S = 0.1
-#: an answer waits for its turn at most until this long (s) after its request came: then it goes at once (every
-#: request answered within 10 s, also when more come than a service may answer in that time)
-ANSWER_BY_S = 9.0
+#: an answer waits for its turn at most until this long (s) after its request was taken (the answers waiting are
+#: spread over the time left when they would not all go by then): every request answered within 10 s, the pool's
+#: 7 s included, also when more come at once than a service answers ANSWER_GAP_S apart in that time
+ANSWER_BY_S = 8.0
 _HANDOUTS = {}   # node -> its AnswerHandout
 _HANDOUTS_LOCK = threading.Lock()
 
@@ -119,10 +121,10 @@ def answer_handout(node, group):
 
 class AnswerHandout:
     """Hands the workers' answers (put from their threads) to the waiting requests in the executor's thread
-    (rclpy's futures are not for other threads), one service's at least ANSWER_GAP_S apart (none later than
-    ANSWER_BY_S after its request came). Woken by a guard condition, or, under rclpy's EventsExecutor, which takes
-    none ('Guard conditions not supported': the fleet host ended at its first predict), by a timer that runs only
-    while a request waits; the same timer hands out the answers that wait for their turn."""
+    (rclpy's futures are not for other threads), one service's ANSWER_GAP_S apart (closer only when more wait than
+    would go by ANSWER_BY_S after their requests were taken). Woken by a guard condition, or, under rclpy's
+    EventsExecutor, which takes none ('Guard conditions not supported': the fleet host ended at its first predict),
+    by a timer that runs only while a request waits; the same timer hands out the answers that wait their turn."""
 
     def __init__(self, node, group, polled, clock=time.monotonic):
         self._clock = clock
@@ -161,12 +163,16 @@ class AnswerHandout:
             for late in [entry for entry in turn if now - entry[0] >= ANSWER_BY_S]:
                 turn.remove(late)
                 self._answer(late)
-            if turn and now >= self._next_at.get(service, -math.inf):
+            due = self._next_at.get(service, now)
+            if due < now - ANSWER_POLL_S:   # idle, or a late tick (a busy machine): the gap counts from now
+                due = now
+            while turn and due <= now:
                 self._answer(turn.popleft())
-                self._next_at[service] = now + ANSWER_GAP_S
+                due += _gap(turn, now)
+            self._next_at[service] = due
             if not turn:
                 del self._turns[service]
-        for service in [service for service, at in self._next_at.items() if at <= now and service not in self._turns]:
+        for service in [service for service, due in self._next_at.items() if due <= now and service not in self._turns]:
             del self._next_at[service]
         self._keep_timer()
 
@@ -182,6 +188,15 @@ class AnswerHandout:
             self._timer.reset()
         elif not wanted and not self._timer.is_canceled():
             self._timer.cancel()
+
+
+def _gap(turn, now):
+    """How long (s) after an answer the next of its service goes, ``turn`` waiting: ANSWER_GAP_S, or less when the
+    answers waiting would not all go by ANSWER_BY_S after the earliest's request (spread over the time left)."""
+    if not turn:
+        return ANSWER_GAP_S
+    left_s = min(asked_at for asked_at, _, _ in turn) + ANSWER_BY_S - now
+    return min(ANSWER_GAP_S, max(0.0, left_s) / len(turn))
 
 
 def _raw(values):
