@@ -5,11 +5,26 @@ by the process's prediction workers (core/prediction_worker.py), off the path of
 callback is a coroutine that hands the plan to the workers from a thread of
 its own and waits without blocking the executor, which keeps stepping every
 battery meanwhile.
+
+A service's answers go out at least ANSWER_GAP_S apart. rmw_fastrtps sends
+every response of a service to every client of that service (each client
+keeps the one for it), and a client's response reader keeps the last
+``depth`` of them (10 by default): 40 clients of one process asking at once
+got their refusals in one burst (the requests beyond a robot's 4 are refused
+together after 1 s) and a client lost its own answer when 10 others came
+before it took it (measured: the server sent all 80 responses of the forty
+test, the probe got 29-39 of 40; a client that takes nothing until all are
+sent gets exactly 10). Spaced, a client that takes its responses every 0.1 s
+loses none. No answer waits for its turn past ANSWER_BY_S after its request
+was taken (when more wait than would go by then, they are spread over the time
+left), so every request is still answered within 10 s.
 """
 import copy
 import math
 import queue
 import threading
+import time
+from collections import deque
 
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.qos import qos_profile_services_default
@@ -57,14 +72,16 @@ class PredictionService:
         arrays = tuple(_raw(getattr(request, name)) for name in FIELDS)
         answered = Future()
         handout = answer_handout(self.node, self._predict_group)
-        handout.asked()
+        asked_at = handout.asked()
 
         def ask():
             try:
                 answer = ('ok', _in_workers(self._key, model, behind_s, arrays, request.charge_to_percentage))
             except (PredictionError, Busy, WorkerFailed) as error:
                 answer = ('refused', str(error))
-            handout.put(answered, answer)
+            except Exception as error:   # a defect must not leave the request unanswered
+                answer = ('refused', 'the prediction failed: %s: %s' % (type(error).__name__, error))
+            handout.put(self, asked_at, answered, answer)
         threading.Thread(target=ask, name='predict', daemon=True).start()
         kind, value = await answered
         if kind != 'ok':
@@ -80,8 +97,17 @@ class PredictionService:
         return response
 
 
-#: how often a polled handout looks for answers while a request waits, s
+#: how often the handout looks for answers (s) while a request waits under the EventsExecutor, or while an answer
+#: waits for its turn
 ANSWER_POLL_S = 0.02
+#: one service's answers go at least this far apart (s): a client of it that takes its responses at least every
+#: 0.1 s loses none with the default response queue (10), however many ask at once (see the module's docstring)
+ANSWER_GAP_S = 0.1
+#: an answer waits for its turn at most until this long (s) after its request was taken, the pool's own bound on a
+#: caller's wait (the answers waiting are spread over the time left when they would not all go by then): the turns
+#: add nothing to the time a request is answered in (10 s), also when more come at once than a service answers
+#: ANSWER_GAP_S apart in that time (a run under a load average of 22 answered 4 of 40 at 10.1-10.4 s with 8 s here)
+ANSWER_BY_S = prediction_worker.TIMEOUT_S
 _HANDOUTS = {}   # node -> its AnswerHandout
 _HANDOUTS_LOCK = threading.Lock()
 
@@ -95,41 +121,83 @@ def answer_handout(node, group):
 
 
 class AnswerHandout:
-    """Hands the workers' answers (put from their threads) to the waiting requests in the executor's thread: woken
-    by a guard condition, or, under rclpy's EventsExecutor, which takes none ('Guard conditions not supported':
-    the fleet host ended at its first predict), by a timer that runs only while a request waits."""
+    """Hands the workers' answers (put from their threads) to the waiting requests in the executor's thread
+    (rclpy's futures are not for other threads), one service's ANSWER_GAP_S apart (closer only when more wait than
+    would go by ANSWER_BY_S after their requests were taken). Woken by a guard condition, or, under rclpy's
+    EventsExecutor, which takes none ('Guard conditions not supported': the fleet host ended at its first predict),
+    by a timer that runs only while a request waits; the same timer hands out the answers that wait their turn."""
 
-    def __init__(self, node, group, polled):
-        self._answers = queue.SimpleQueue()
-        self._waiting = 0   # requests asked and not answered (the executor's thread only)
-        if polled:
-            self._timer = node.create_timer(ANSWER_POLL_S, self._hand_out, callback_group=group, clock=steady_clock())
-            self._timer.cancel()
-            self._guard = None
-        else:
-            self._timer = None
-            self._guard = node.create_guard_condition(self._hand_out, callback_group=group)
+    def __init__(self, node, group, polled, clock=time.monotonic):
+        self._clock = clock
+        self._answers = queue.SimpleQueue()   # (service, asked_at, future, answer) from the workers' threads
+        # the executor's thread only, from here on
+        self._turns = {}      # service -> deque of (asked_at, future, answer) waiting for their turn
+        self._next_at = {}    # service -> when its next answer may go (clock s)
+        self._waiting = 0     # requests asked and not answered
+        self._polled = polled
+        self._timer = node.create_timer(ANSWER_POLL_S, self._hand_out, callback_group=group, clock=steady_clock())
+        self._timer.cancel()
+        self._guard = None if polled else node.create_guard_condition(self._hand_out, callback_group=group)
 
     def asked(self):
+        """A request came (the executor's thread): the time it came, for put."""
         self._waiting += 1
-        if self._timer is not None and self._timer.is_canceled():
-            self._timer.reset()
+        self._keep_timer()
+        return self._clock()
 
-    def put(self, answered, answer):
-        self._answers.put((answered, answer))
+    def put(self, service, asked_at, answered, answer):
+        """The answer to a request of ``service`` asked at ``asked_at``, for the future ``answered`` (any thread)."""
+        self._answers.put((service, asked_at, answered, answer))
         if self._guard is not None:
             self._guard.trigger()
 
     def _hand_out(self):
+        now = self._clock()
         while True:
             try:
-                answered, answer = self._answers.get_nowait()
+                service, asked_at, answered, answer = self._answers.get_nowait()
             except queue.Empty:
                 break
-            self._waiting -= 1
-            answered.set_result(answer)
-        if self._timer is not None and self._waiting <= 0:
+            self._turns.setdefault(service, deque()).append((asked_at, answered, answer))
+        for service in list(self._turns):
+            turn = self._turns[service]
+            for late in [entry for entry in turn if now - entry[0] >= ANSWER_BY_S]:
+                turn.remove(late)
+                self._answer(late)
+            due = self._next_at.get(service, now)
+            if due < now - ANSWER_POLL_S:   # idle, or a late tick (a busy machine): the gap counts from now
+                due = now
+            while turn and due <= now:
+                self._answer(turn.popleft())
+                due += _gap(turn, now)
+            self._next_at[service] = due
+            if not turn:
+                del self._turns[service]
+        for service in [service for service, due in self._next_at.items() if due <= now and service not in self._turns]:
+            del self._next_at[service]
+        self._keep_timer()
+
+    def _answer(self, entry):
+        _, answered, answer = entry
+        self._waiting -= 1
+        answered.set_result(answer)
+
+    def _keep_timer(self):
+        """The timer runs while an answer waits for its turn, or (EventsExecutor) while a request waits."""
+        wanted = bool(self._turns) or (self._polled and self._waiting > 0)
+        if wanted and self._timer.is_canceled():
+            self._timer.reset()
+        elif not wanted and not self._timer.is_canceled():
             self._timer.cancel()
+
+
+def _gap(turn, now):
+    """How long (s) after an answer the next of its service goes, ``turn`` waiting: ANSWER_GAP_S, or less when the
+    answers waiting would not all go by ANSWER_BY_S after the earliest's request (spread over the time left)."""
+    if not turn:
+        return ANSWER_GAP_S
+    left_s = min(asked_at for asked_at, _, _ in turn) + ANSWER_BY_S - now
+    return min(ANSWER_GAP_S, max(0.0, left_s) / len(turn))
 
 
 def _raw(values):
