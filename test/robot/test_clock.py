@@ -143,3 +143,11 @@ def test_a_robot_that_turned_on_the_dock_backs_off_away_from_it(step_s, start):
     dx, dy = first[0] - pose[0], first[1] - pose[1]
     t = max(0.0, min(1.0, -(pose[0] * dx + pose[1] * dy) / (dx * dx + dy * dy)))
     assert math.hypot(pose[0] + t * dx, pose[1] + t * dy) > 0.3, 'the way on passes the dock from %s' % (pose,)
+
+
+def test_a_paced_clock_behind_says_it_waits_for_the_controller():
+    free = sim_clock.TickSchedule(240.0, 0.0, 250.0, 0.0)
+    assert free.behind_line() == 'sim_clock cannot keep up 250 ticks a second: ROS time runs slower than x240'
+    paced = sim_clock.TickSchedule(240.0, 0.0, 250.0, 0.0, ['/cmd_vel'])
+    assert paced.behind_line() == ('sim_clock paced on /cmd_vel: ROS time runs slower than x240 while the '
+                                   'controller takes longer than a tick (4 ms)')

@@ -85,8 +85,10 @@ class TickSchedule:
     """The ticks of a clock: ``tick()`` is the next ROS time to publish, then ``delay(wall_now)`` the wall
     seconds to sleep until the tick after, and whether the clock gave up catching up on it."""
 
-    def __init__(self, speed, start, tick_hz, wall_now):
+    def __init__(self, speed, start, tick_hz, wall_now, paced_on=()):
+        """``paced_on``: the topics each tick waits for (a clock paced on the robot's controller)."""
         self.speed, self.start, self.tick_hz = speed, start, tick_hz
+        self.paced_on = list(paced_on)
         self.period_s = 1.0 / tick_hz
         self.ticks = 0
         self._next_wall = wall_now
@@ -111,6 +113,9 @@ class TickSchedule:
         return max(0.0, delay_s), False
 
     def behind_line(self):
+        if self.paced_on:   # expected: each tick waits for the robot's controller
+            return 'sim_clock paced on %s: ROS time runs slower than x%g while the controller takes longer than a ' \
+                   'tick (%g ms)' % (', '.join(self.paced_on), self.speed, 1000.0 / self.tick_hz)
         return 'sim_clock cannot keep up %g ticks a second: ROS time runs slower than x%g' % (self.tick_hz, self.speed)
 
     def start_line(self):

@@ -88,7 +88,7 @@ class SimClock:
     def spin(self):
         if self._wait_for:
             self._hold()
-        schedule = rule.TickSchedule(self._speed, self._start, self._tick_hz, time.monotonic())
+        schedule = rule.TickSchedule(self._speed, self._start, self._tick_hz, time.monotonic(), self._pace.topics)
         rospy.loginfo(schedule.start_line())
         while not rospy.is_shutdown():
             try:

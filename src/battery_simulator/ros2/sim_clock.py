@@ -127,7 +127,7 @@ class SimClock:
         if self._wait_for:
             self._hold()
         log = self._node.get_logger()
-        schedule = rule.TickSchedule(self._speed, self._start, self._tick_hz, time.monotonic())
+        schedule = rule.TickSchedule(self._speed, self._start, self._tick_hz, time.monotonic(), self._pace.topics)
         log.info(schedule.start_line())
         while not self._stopped.is_set() and self._node.context.ok():
             try:
