@@ -37,6 +37,39 @@ def test_bmw_i3_drive_96_cells_bms_capacity_and_temperature(tmp_path):
     assert figures['held_mv'] <= 15.0, 'held out %.1f mV per cell (at most 15)' % figures['held_mv']
 
 
+def test_usual_pack_layout_only_where_the_ocv_level_cannot_tell():
+    """Counts within 5 % of the best fit of the OCV level are not told apart by a pack's voltage: the one with
+    the most module layouts is taken. Below 21 cells no other count lies within 5 %: the data decide alone."""
+    from battery_simulator.core.fit.series import usual_count
+    assert usual_count(list(range(85, 110)), 99) == 96
+    assert usual_count(list(range(85, 110)), 92) == 96
+    assert usual_count(list(range(85, 120)), 110) == 108
+    assert usual_count(list(range(20, 30)), 23) == 24
+    assert all(usual_count(list(range(1, 21)), n) == n for n in range(1, 21))
+    assert usual_count(list(range(89, 96)), 93) == 90   # 96 outside what the voltage allows: not taken
+
+
+@pytest.mark.parametrize('name, fitted_best', [('bmw_i3_TripB06.csv.gz', 97), ('bmw_i3_TripB13.csv.gz', 99)])
+def test_bmw_i3_series_count_96_with_the_runner_up_said(name, fitted_best):
+    """The i3's cells sit up to 5 % above LG HG2's OCV at the BMS's percentage (their own chemistry): the level
+    alone put B06 at 97 cells and B13 (a drive at 56 % SOC) at 99, 96 at 38 times the pack RMSE. The
+    count within the cells' level spread that packs are built of is taken, the best fit named in a warning."""
+    from battery_simulator.cli.fit import DETECTED
+    from battery_simulator.core.config_files import preset
+    from battery_simulator.core.fit.conventions import prepare, split_at_gaps
+    from battery_simulator.core.fit.known import fit_mask, known_charge
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.fit.series import series_count
+    candidates = [(name, preset(name)) for name in DETECTED]
+    logs = split_at_gaps(prepare(read_log(os.path.join(DATA, name)), candidates[0][1].cmd_vel_timeout_s))
+    masks = [fit_mask(log, 0.4) for log in logs]
+    warnings = []
+    count, why, chemistry, _ = series_count(logs, masks, candidates, known_charge(logs, masks), None, None,
+                                            lambda *_: None, warnings)
+    assert (count, chemistry) == (96, 'lg_hg2_cell'), why
+    assert any('best fit of the OCV level, %d cells' % fitted_best in w for w in warnings), warnings
+
+
 def test_a_stretched_ocv_scale_never_cuts_off_what_the_log_went_through(tmp_path):
     """The winter drive B06: the preset's OCV on a stretched SOC scale (0.497 + 0.375 x) put SOC 0 at 3.738 V
     per cell while the fitted part went down to 3.528 V: the replay's model disconnected (fitted part 56.5 mV

@@ -205,7 +205,8 @@ def increasing(values, step=1e-4):
     return values
 
 
-def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest, fitted, kept, warnings):
+def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest, fitted, kept, warnings,
+                      level_source='the rests\' voltages'):
     p = chemistry.params
     changes = {}
     capacity = electrical.capacity_ah
@@ -240,6 +241,7 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
         changes.update(resistance_soc=(), r0_soc_factor=(), r1_soc_factor=(), r_fast_soc_factor=())
         fitted['resistance_soc'] = Fitted((), 'the preset\'s SOC factor tables fitted worse than none')
     soc = np.asarray(chemistry.soc_points)
+    shift = 0.0   # the preset's shape moved by the offset: its charge voltage with it
     if curve is None:
         offset, sigma = coefficients['offset']
         if not has_rest:
@@ -247,8 +249,8 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
                                     'current) to read it from' % REST_S
             volts = chemistry.ocv.copy()
         else:
-            volts = chemistry.ocv + offset
-            fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, 'the rests\' voltages', sigma)
+            volts, shift = chemistry.ocv + offset, offset
+            fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, level_source, sigma)
     else:
         knots, values = np.array(curve['knots'], dtype=float), curve['values']
         knots[0] = 0.0 if knots[0] < 1e-4 else knots[0]          # a knot at the table's own end is that end
@@ -280,7 +282,7 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
         gap = np.interp(soc, chemistry.soc_points, chemistry.gap)
         changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in increasing(np.maximum(volts + gap, volts)))
     # the charge voltage and the cut-off within the table
-    changes['cell_charge_voltage_v'] = float('%.5f' % min(p.cell_charge_voltage_v, volts[-1]))
+    changes['cell_charge_voltage_v'] = float('%.5f' % min(p.cell_charge_voltage_v + shift, volts[-1]))
     changes['cell_cutoff_voltage_v'] = float('%.5f' % max(p.cell_cutoff_voltage_v, volts[0]))
     if changes['cell_cutoff_voltage_v'] >= changes['cell_charge_voltage_v']:
         raise FitError('the fitted OCV curve leaves no room between the cut-off and the charge voltage')

@@ -86,7 +86,11 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     chemistry = Chemistry(chemistry_params)
     # -- the electrical fit, with the model's temperature
     progress(0.25, 'capacity and resistances')
-    has_rest = any(log_has_rest(log, mask) for log, mask in zip(logs, masks))
+    rests = any(log_has_rest(log, mask) for log, mask in zip(logs, masks))
+    # the OCV's level (an offset to the preset's shape) is read from a rest, or from any stretch of a drive
+    # where the logged percentage gives the SOC: the BMS pins the SOC, the current's steps the resistances
+    has_rest = rests or (known.soc0 is not None and not steady_current(logs))
+    level_source = 'the rests\' voltages' if rests else 'the voltage at the SOC the logged percentage gives'
     temperatures = [preset_temperature(log, chemistry) for log in logs]
     electrical = fit_electrical(logs, masks, chemistry, cells_series, 1, temperatures, has_rest, None, known=known)
     cells_parallel = parallel_count(electrical.capacity_ah, chemistry_params.cell_capacity_ah)
@@ -136,7 +140,8 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
             fit_thermal(logs, masks, chemistry, cells_parallel, this_electrical, these_fitted, these_kept,
                          these_warnings)
         params = _assemble(logs, masks, this_electrical, which, this_heat, loads, chemistry, chemistry_name,
-                           cells_series, cells_parallel, has_rest, these_fitted, these_kept, these_warnings)
+                           cells_series, cells_parallel, has_rest, these_fitted, these_kept, these_warnings,
+                           level_source)
         result = FitResult(params=params, chemistry=chemistry_name, fitted=these_fitted, kept=these_kept,
                            warnings=these_warnings, logs=logs, initial_soc=list(this_electrical.soc0),
                            fit_masks=masks)
@@ -242,11 +247,11 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
 
 
 def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, chemistry_name, cells_series,
-              cells_parallel, has_rest, fitted, kept, warnings):
+              cells_parallel, has_rest, fitted, kept, warnings, level_source):
     """The fitted parameters from the parts (FitError when they break the model's rules)."""
     chemistry_params = chemistry.params
     changes = electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest,
-                                 fitted, kept, warnings)
+                                 fitted, kept, warnings, level_source)
     changes.update(loads)
     changes.update(fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted, kept))
     changes.update(heat_params['changes'])
