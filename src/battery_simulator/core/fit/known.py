@@ -20,6 +20,8 @@ MILLIAMPERES_PER_VOLT = 60.0
 MILLIVOLTS_V = 1500.0
 #: a log whose largest current is below this C-rate while sampled this far apart has stamps in ms
 MILLISECONDS_C_RATE, MILLISECONDS_PERIOD_S = 0.01, 10.0
+#: samples per log whose pairs give the percentage's slope against the counted charge
+PAIR_SAMPLES = 300
 #: how far a known capacity (log) or starting SOC may move in the fit
 KNOWN_SPREAD = 0.01
 
@@ -169,24 +171,29 @@ def preset_temperature(log, chemistry):
 
 def _percentage_capacity(logs, masks):
     """(pack capacity, starting SOC per log) from the logged percentage against the counted charge, where
-    every log has it and it moves by PERCENTAGE_SPAN in all; else None."""
-    rows, targets = [], []
-    for index, (log, mask) in enumerate(zip(logs, masks)):
+    every log has it and it moves by PERCENTAGE_SPAN in all; else None. The slope is the median of the
+    slopes between pairs of samples of one log (Theil-Sen): a stretch where the BMS's percentage and the
+    logged current disagree (a winter drive's first minutes: 3.6 Ah drawn, 1.8 % counted) moves a least-squares
+    line (105.9 Ah from a 61.7 Ah pack) but not the median (63.6 Ah)."""
+    slopes, pieces = [], []
+    for log, mask in zip(logs, masks):
         if log.percentage is None:
             return None
         charge = counted_charge_ah(log)
-        use = mask & np.isfinite(log.percentage)
-        if use.sum() < 10:
+        use = np.flatnonzero(mask & np.isfinite(log.percentage))
+        if len(use) < 10:
             return None
-        row = np.zeros((use.sum(), len(logs) + 1))
-        row[:, index] = 1.0
-        row[:, -1] = charge[use]
-        rows.append(row)
-        targets.append(log.percentage[use])
-    target = np.concatenate(targets)
-    if np.ptp(target) < PERCENTAGE_SPAN:
+        use = use[::max(1, len(use) // PAIR_SAMPLES)]
+        q, p = charge[use], log.percentage[use]
+        first, second = np.triu_indices(len(use), 1)
+        dq = q[second] - q[first]
+        moved = np.abs(dq) > 0
+        slopes.append((p[second] - p[first])[moved] / dq[moved])
+        pieces.append((q, p))
+    if max(np.ptp(p) for _, p in pieces) < PERCENTAGE_SPAN or not sum(len(s) for s in slopes):
         return None
-    values = np.linalg.lstsq(np.vstack(rows), target, rcond=None)[0]
-    if not values[-1] > 0 or not all(-0.02 <= v <= 1.02 for v in values[:-1]):
+    slope = float(np.median(np.concatenate(slopes)))
+    starts = [float(np.median(p - slope * q)) for q, p in pieces]
+    if not slope > 0 or not all(-0.02 <= v <= 1.02 for v in starts):
         return None
-    return 1.0 / values[-1], [float(min(max(v, 0.0), 1.0)) for v in values[:-1]]
+    return 1.0 / slope, [min(max(v, 0.0), 1.0) for v in starts]

@@ -20,8 +20,10 @@ CELL_VOLTAGE_MARGIN = {'below': 0.45, 'above': 0.2}
 #: the series counts tried in full per chemistry (nearest its nominal voltage) when no percentage screens them
 FULL_FIT_CANDIDATES = 6
 #: another chemistry than the first (the preset given or Li-ion) is taken where its fit's RMSE is below this
-#: fraction of the first's: over a short span of SOC a flat curve and a sloped one can fit nearly alike
-CHEMISTRY_CLEAR = 0.7
+#: fraction of the first's: over a short span of SOC a flat curve and a sloped one can fit nearly alike (a BMW
+#: i3 winter drive over 15 % of SOC: LFP's shape at 116 cells 1.9 times better than Li-ion's at 97; the A123
+#: LFP cell's DST test: LFP 8 times better)
+CHEMISTRY_CLEAR = 1.0 / 3.0
 #: The level of the OCV is what tells the counts apart, and it is a cell's own: at the same state of charge
 #: Li-ion cells differ in OCV by up to this fraction of their voltage. Measured: LG HG2 (the preset), the LG M50
 #: (NMC811, Chen et al. 2020, doi:10.1149/1945-7111/ab9050) and Samsung SDI's 94 Ah NMC111 cell (the OCV fit of
@@ -38,7 +40,8 @@ MODULE_SIZES = (12, 8, 6, 4, 2, 1)
 
 
 def series_count(logs, masks, candidates, known, cells_series, why, progress, warnings):
-    """(series count, why, chemistry name, chemistry params): every count the fitted part's voltage range
+    """(series count, why, chemistry name, chemistry params, whether the count is not the best fit's but the
+    usual layout near it): every count the fitted part's voltage range
     allows for each chemistry's cells, scored by the fit of that chemistry's OCV shape (no offset: the
     level is what tells the counts apart) in pack volts."""
     voltages = np.concatenate([log.voltage_v[mask] for log, mask in zip(logs, masks)])
@@ -114,7 +117,7 @@ def series_count(logs, masks, candidates, known, cells_series, why, progress, wa
         if best != fitted_best:
             why += '; %d taken: the usual pack layout within %.0f %% of %d (the level of an unknown cell\'s OCV ' \
                    'does not tell them apart)' % (best, 100 * LEVEL_SPREAD, fitted_best)
-    return best, why, name, params
+    return best, why, name, params, best != fitted_best
 
 
 def usual_count(counts, best):
