@@ -37,6 +37,8 @@ REPLAY_CHECK_SAMPLES = 20000
 #: REMAP_TRAIN of each fitted part and taken where it fits the fitted part REMAP_GAIN better and predicts the
 #: rest of the fitted part better than the preset's own scale
 REMAP_GAIN, REMAP_SLOPE, REMAP_TRAIN = 0.85, (0.3, 3.0), 0.7
+#: a stretched scale holds down to this SOC (the logged percentage's), below it it returns to the preset's SOC 0
+REMAP_JOIN = 0.05
 #: the config without hysteresis is taken where its replay of the fitted part is below this many times the
 #: config's with the preset's hysteresis
 VARIANT_GAIN = 0.8
@@ -255,11 +257,13 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
         return None
     start, slope = (float(v) for v in solution.x)
     p = chemistry.params
-    # below the fitted part's lowest SOC the scale returns to the preset's SOC 0 (joined there): a stretched
-    # scale's own SOC 0 would sit at the fitted part's voltage, and the model's cut-off (at or above the
-    # table's start) then cut off a drive's heavier loads below it (BMW i3 B02: 3.72 V per cell, held out
-    # 70 mV per cell)
-    lowest_soc = min(float(np.min(piece[1][mask])) for piece, mask in zip(electrical.pieces, masks))
+    # below REMAP_JOIN (or the fitted part's lowest SOC) the scale returns to the preset's SOC 0, joined there:
+    # a stretched scale's own SOC 0 would sit near the fitted part's voltage, and the model's cut-off (at or
+    # above the table's start) then cut off a drive's heavier loads (BMW i3 B02: 3.72 V per cell, held out 70
+    # mV per cell); joined at the fitted part's lowest SOC instead, the next drive 5 % lower fell off the
+    # stretched slope (A08 then A09: 60 mV per cell)
+    lowest_soc = min([REMAP_JOIN] + [float(np.min(piece[1][mask]))
+                                     for piece, mask in zip(electrical.pieces, masks)])
     x = chemistry.soc_points
     if 1e-3 < lowest_soc < 1.0 - 1e-3 and np.min(np.abs(x - lowest_soc)) > 1e-3:   # the join a point of the table
         x = np.sort(np.concatenate([x, [round(lowest_soc, 4)]]))
