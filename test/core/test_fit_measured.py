@@ -87,6 +87,31 @@ def test_bmw_i3_at_its_usual_count_reads_the_ocv_level_from_the_percentage(tmp_p
                                                                             figures['held_mv'])
 
 
+def test_a_cut_off_pins_soc_0_where_no_full_charge_pins_soc_1():
+    """LG HG2's C/20 test (Kollmeyer): a discharge from 4.176 V to 2.8 V, a rest, the charge back; the fitted
+    part has no CC-CV charge's end and no percentage. The discharge's end at its knee is SOC 0, so each start
+    is the charge counted to it over the capacity: a learned curve may not stretch the SOC scale (before: the
+    fit started at SOC 0.918 with 3.12 Ah, held out 52.2 mV against the unfitted preset's 34.7; now 0.975,
+    2.85 Ah, 35.7 mV: docs/fit.md). A discharge stopped at half charge (no knee) pins nothing."""
+    from battery_simulator.core.fit.conventions import prepare
+    from battery_simulator.core.fit.electrical import fit_electrical
+    from battery_simulator.core.fit.circuit import Chemistry
+    from battery_simulator.core.fit.known import fit_mask, known_charge, preset_temperature
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.config_files import preset
+    log = prepare(read_log(os.path.join(DATA, 'lg_hg2_549_C20DisCh.csv.gz')))
+    masks = [fit_mask(log, 0.4)]
+    known = known_charge([log], masks)
+    charge = counted_charge_ah(log)
+    assert known.empty_at is not None and charge[known.empty_at[0]] == pytest.approx(charge.min(), abs=0.01)
+    chemistry = Chemistry(preset('lg_hg2_cell'))
+    result = fit_electrical([log], masks, chemistry, 1, 1, [preset_temperature(log, chemistry)], True, None,
+                            max_evaluations=30, known=known)
+    assert result.soc0[0] == pytest.approx(-charge[known.empty_at[0]] / result.capacity_ah, abs=1e-6)
+    half = masks[0] & (np.arange(len(log.time_s)) < int(np.argmin(charge)) - 120)   # 2 h before empty
+    assert known_charge([log], [half]).empty_at is None
+
+
 def test_capacity_from_the_percentage_is_not_moved_by_a_stretch_it_disagrees_with():
     """The winter drive B02's first 3 minutes: its current ramps linearly from -19 to -134 A and back in 170 s
     (a gap in the source filled by interpolation: 3.6 Ah drawn while the BMS's percentage moved 1.8 %). A

@@ -73,8 +73,11 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
         capacity = math.exp(z[0])
         out = []
         for k in range(n):
-            full = known.full_at[k] if known.full_at is not None and known.soc0 is None else None
-            out.append(min(1.0, max(0.0, 1.0 - counted[k][full] / capacity)) if full is not None else float(z[1 + k]))
+            pin = known.start_pin(k)
+            if pin is None:
+                out.append(float(z[1 + k]))
+            else:   # SOC 1 at a full charge's end, or SOC 0 at a cut-off
+                out.append(min(1.0, max(0.0, (pin[0] == 'full') - counted[k][pin[1]] / capacity)))
         return out
 
     def solve(z, use_tables):
