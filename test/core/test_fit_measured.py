@@ -106,7 +106,7 @@ def test_a_cut_off_pins_soc_0_where_no_full_charge_pins_soc_1():
     assert known.empty_at is not None and charge[known.empty_at[0]] == pytest.approx(charge.min(), abs=0.01)
     chemistry = Chemistry(preset('lg_hg2_cell'))
     result = fit_electrical([log], masks, chemistry, 1, 1, [preset_temperature(log, chemistry)], True, None,
-                            max_evaluations=30, known=known)
+                            max_evaluations=4, known=known)
     assert result.soc0[0] == pytest.approx(-charge[known.empty_at[0]] / result.capacity_ah, abs=1e-6)
     half = masks[0] & (np.arange(len(log.time_s)) < int(np.argmin(charge)) - 120)   # 2 h before empty
     assert known_charge([log], [half]).empty_at is None
