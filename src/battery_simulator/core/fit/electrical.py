@@ -73,8 +73,11 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
         capacity = math.exp(z[0])
         out = []
         for k in range(n):
-            full = known.full_at[k] if known.full_at is not None and known.soc0 is None else None
-            out.append(min(1.0, max(0.0, 1.0 - counted[k][full] / capacity)) if full is not None else float(z[1 + k]))
+            pin = known.start_pin(k)
+            if pin is None:
+                out.append(float(z[1 + k]))
+            else:   # SOC 1 at a full charge's end, or SOC 0 at a cut-off
+                out.append(min(1.0, max(0.0, (pin[0] == 'full') - counted[k][pin[1]] / capacity)))
         return out
 
     def solve(z, use_tables):
@@ -205,7 +208,8 @@ def increasing(values, step=1e-4):
     return values
 
 
-def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest, fitted, kept, warnings):
+def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest, fitted, kept, warnings,
+                      level_source='the rests\' voltages'):
     p = chemistry.params
     changes = {}
     capacity = electrical.capacity_ah
@@ -240,6 +244,7 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
         changes.update(resistance_soc=(), r0_soc_factor=(), r1_soc_factor=(), r_fast_soc_factor=())
         fitted['resistance_soc'] = Fitted((), 'the preset\'s SOC factor tables fitted worse than none')
     soc = np.asarray(chemistry.soc_points)
+    shift = 0.0   # the preset's shape moved by the offset: its charge voltage with it
     if curve is None:
         offset, sigma = coefficients['offset']
         if not has_rest:
@@ -247,8 +252,8 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
                                     'current) to read it from' % REST_S
             volts = chemistry.ocv.copy()
         else:
-            volts = chemistry.ocv + offset
-            fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, 'the rests\' voltages', sigma)
+            volts, shift = chemistry.ocv + offset, offset
+            fitted['ocv_voltage_v'] = Fitted('preset shape %+.4f V' % offset, level_source, sigma)
     else:
         knots, values = np.array(curve['knots'], dtype=float), curve['values']
         knots[0] = 0.0 if knots[0] < 1e-4 else knots[0]          # a knot at the table's own end is that end
@@ -280,7 +285,7 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
         gap = np.interp(soc, chemistry.soc_points, chemistry.gap)
         changes['ocv_charge_voltage_v'] = tuple(float('%.5f' % v) for v in increasing(np.maximum(volts + gap, volts)))
     # the charge voltage and the cut-off within the table
-    changes['cell_charge_voltage_v'] = float('%.5f' % min(p.cell_charge_voltage_v, volts[-1]))
+    changes['cell_charge_voltage_v'] = float('%.5f' % min(p.cell_charge_voltage_v + shift, volts[-1]))
     changes['cell_cutoff_voltage_v'] = float('%.5f' % max(p.cell_cutoff_voltage_v, volts[0]))
     if changes['cell_cutoff_voltage_v'] >= changes['cell_charge_voltage_v']:
         raise FitError('the fitted OCV curve leaves no room between the cut-off and the charge voltage')

@@ -75,9 +75,9 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
         cell_capacity = math.exp(z[2]) / electrical.cells_parallel
         out = list(z[3:])
         for k in range(len(arrays)):
-            full = known.full_at[k] if known.full_at is not None and known.soc0 is None else None
-            if full is not None:   # SOC 1 at a full charge's end
-                out[k] = min(1.0, max(0.0, 1.0 - counted[k][full] / cell_capacity))
+            pin = known.start_pin(k)
+            if pin is not None:   # SOC 1 at a full charge's end, or SOC 0 at a cut-off
+                out[k] = min(1.0, max(0.0, (pin[0] == 'full') - counted[k][pin[1]] / cell_capacity))
         return out
 
     def solve(z):

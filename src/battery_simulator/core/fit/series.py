@@ -20,12 +20,28 @@ CELL_VOLTAGE_MARGIN = {'below': 0.45, 'above': 0.2}
 #: the series counts tried in full per chemistry (nearest its nominal voltage) when no percentage screens them
 FULL_FIT_CANDIDATES = 6
 #: another chemistry than the first (the preset given or Li-ion) is taken where its fit's RMSE is below this
-#: fraction of the first's: over a short span of SOC a flat curve and a sloped one can fit nearly alike
-CHEMISTRY_CLEAR = 0.7
+#: fraction of the first's: over a short span of SOC a flat curve and a sloped one can fit nearly alike (a BMW
+#: i3 winter drive over 15 % of SOC: LFP's shape at 116 cells 1.9 times better than Li-ion's at 97; the A123
+#: LFP cell's DST test: LFP 8 times better)
+CHEMISTRY_CLEAR = 1.0 / 3.0
+#: The level of the OCV is what tells the counts apart, and it is a cell's own: at the same state of charge
+#: Li-ion cells differ in OCV by up to this fraction of their voltage. Measured: LG HG2 (the preset), the LG M50
+#: (NMC811, Chen et al. 2020, doi:10.1149/1945-7111/ab9050) and Samsung SDI's 94 Ah NMC111 cell (the OCV fit of
+#: SimSES, Moeller et al. 2022, doi:10.1016/j.est.2021.103743) lie within 40 mV of each other between 30 and
+#: 90 % SOC, but the BMW i3's cells (96S, Samsung SDI 60 Ah) sit up to 5 % above them at the car's BMS
+#: percentage (3.81 V per cell at 38 %: 190 mV). So counts within this fraction of the best-fitting one are
+#: not told apart by a pack's voltage; among them the count built of the largest of MODULE_SIZES is taken,
+#: the nearest to the best fit on a tie. It never moves the count further than this fraction, so below 21
+#: cells (where n / (n - 1) > 1.05) it never acts.
+LEVEL_SPREAD = 0.05
+#: the cells in series of a pack's module, most usual first: packs are built of equal modules of 12 (the BMW
+#: i3: 8 x 12 = 96; VW's MEB: 9 x 12 = 108), 8, 6 or 4 cells in series (robots: 24, 48)
+MODULE_SIZES = (12, 8, 6, 4, 2, 1)
 
 
 def series_count(logs, masks, candidates, known, cells_series, why, progress, warnings):
-    """(series count, why, chemistry name, chemistry params): every count the fitted part's voltage range
+    """(series count, why, chemistry name, chemistry params, whether the count is not the best fit's but the
+    usual layout near it): every count the fitted part's voltage range
     allows for each chemistry's cells, scored by the fit of that chemistry's OCV shape (no offset: the
     level is what tells the counts apart) in pack volts."""
     voltages = np.concatenate([log.voltage_v[mask] for log, mask in zip(logs, masks)])
@@ -75,20 +91,40 @@ def series_count(logs, masks, candidates, known, cells_series, why, progress, wa
         scores.remove(firsts[0])   # another chemistry only where it fits clearly better than the first
         scores.insert(0, firsts[0])
     score, best, name, params = scores[0]
+    same = {item[1]: item[0] for item in scores if item[2] == name}
+    fitted_best = best
+    best = usual_count(sorted(same), fitted_best)
+    score = same[best]
     bests = {}
     for item in scores:
         bests.setdefault(item[2], item)
     tried = ['%s (best %d: %.3g V)' % (text, bests[text.split()[0]][1], bests[text.split()[0]][0])
              if text.split()[0] in bests else text for text in tried]
     if why is None:
-        rivals = [item for item in scores[1:] if item[0] < SERIES_CLEAR * score and item[1] != best]
-        if rivals:
+        rivals = [item for item in scores if item[0] < SERIES_CLEAR * score and item[1] != best]
+        if best != fitted_best:
+            band = [n for n in sorted(same) if abs(n - fitted_best) <= LEVEL_SPREAD * fitted_best]
+            warnings.append('cells in series: %d taken, the usual pack layout among %s (within %.0f %% of the '
+                            'best fit of the OCV level, %d cells: %.3g V pack RMSE against %.3g at %d; an unknown '
+                            'cell\'s OCV level is not known to better than that); --cells-series settles it'
+                            % (best, _ranges(band), 100 * LEVEL_SPREAD, fitted_best, same[fitted_best], score, best))
+        elif rivals:
             warnings.append('cells in series: %d fits best (%.3g V pack RMSE), but %d nearly as well (%.3g V); '
                             '--cells-series settles it' % (best, score, rivals[0][1], rivals[0][0]))
         why = ('the fitted part\'s voltage %.2f-%.2f V and the best fit of the OCV shape among %s cells%s'
                % (low, high, '; '.join(tried), ' (the SOC from the logged percentage)'
                   if known.soc0 is not None else ''))
-    return best, why, name, params
+        if best != fitted_best:
+            why += '; %d taken: the usual pack layout within %.0f %% of %d (the level of an unknown cell\'s OCV ' \
+                   'does not tell them apart)' % (best, 100 * LEVEL_SPREAD, fitted_best)
+    return best, why, name, params, best != fitted_best
+
+
+def usual_count(counts, best):
+    """Among ``counts`` within LEVEL_SPREAD of ``best``, the one built of the largest of MODULE_SIZES (the
+    nearest to ``best`` on a tie)."""
+    band = [n for n in counts if abs(n - best) <= LEVEL_SPREAD * best] or [best]
+    return max(band, key=lambda n: (max(m for m in MODULE_SIZES if n % m == 0), -abs(n - best), -n))
 
 
 def _ranges(counts):
