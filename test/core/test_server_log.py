@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from battery_simulator.core.battery import Battery, BatteryError, GoalEnd, new_battery, parse_mode
-from battery_simulator.core.battery_states import Mode
+from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.config_files import preset
 from battery_simulator.core.node_settings import (MODE_ALLOWED, SettingError, check_setting, is_mode_value, refusal,
                                                   setting)
@@ -60,12 +60,8 @@ def test_the_factory_runs_on_the_ros_clock_it_is_given_and_defaults_the_rest():
 # -- the server's lines ------------------------------------------------------------------------------------
 
 class Snapshot:
-    def __init__(self, percentage):
-        self.percentage, self.voltage_v, self.current_a = percentage, 11.62, -1.5
-
-        class Status:
-            value = 'discharging'
-        self.status = Status
+    def __init__(self, percentage, status=Status.DISCHARGING, current_a=-1.5):
+        self.percentage, self.voltage_v, self.current_a, self.status = percentage, 11.62, current_a, status
 
 
 def test_the_progress_line_comes_once_a_whole_percent_at_most_once_a_period():
@@ -80,6 +76,22 @@ def test_the_progress_line_comes_once_a_whole_percent_at_most_once_a_period():
     lines.progress(Snapshot(56.5))
     assert log.lines == [('info', 'Discharging... 57 % (11.62 V, -1.50 A)'),
                          ('info', 'Discharging... 56 % (11.62 V, -1.50 A)')]
+
+
+def test_a_new_status_is_said_at_once_and_empty_says_how_to_charge():
+    now = [100.0]
+    log = Lines()
+    lines = ServerLog(log, clock=lambda: now[0])
+    lines.progress(Snapshot(0.4))
+    now[0] += 0.1
+    lines.progress(Snapshot(0.0, Status.EMPTY, 0.0))          # the same whole percent, too soon: said all the same
+    now[0] += 0.1
+    lines.progress(Snapshot(0.0, Status.CHARGING, 1.5))
+    assert log.lines == [
+        ('info', 'Discharging... 0 % (11.62 V, -1.50 A)'),
+        ('info', 'Empty... 0 % (11.62 V, +0.00 A): cut off; charge it with a charge goal (battery_sim_client 1) or '
+                 'set_charging'),
+        ('info', 'Charging... 0 % (11.62 V, +1.50 A)')]
 
 
 def test_the_goal_and_charger_lines_are_one_text_for_both_front_ends():

@@ -4,6 +4,7 @@ change or a level says the same on ROS 1 and ROS 2."""
 import time
 
 from battery_simulator.core.battery import INVALID_LOG_PERIOD_S, GoalEnd
+from battery_simulator.core.battery_states import Status
 
 #: lines an input can repeat at any rate (contact flapping, a flood of goals) at most this often
 LOG_PERIOD_S = 1.0
@@ -13,6 +14,9 @@ JUMP_LOG_PERIOD_S = 10.0
 PROGRESS_PERIOD_S = 1.0
 #: why a goal ends when the server stops (ROS 1 preempts it, ROS 2 aborts it: the text is the same)
 SHUTDOWN_TEXT = 'server shutting down'
+#: the progress line at Empty says how to charge (the action's charge goal, the charger's service)
+EMPTY_HINT = ': cut off; charge it with a charge goal (battery_sim_client 1) or set_charging'
+EMPTY_STATUS = Status.EMPTY.value
 
 
 def charger_reply(connected):
@@ -26,7 +30,7 @@ class ServerLog:
     def __init__(self, log, clock=time.monotonic):
         self.log = log
         self._clock = clock
-        self._progress = (None, -PROGRESS_PERIOD_S)   # (whole percent, time) of the last progress line
+        self._progress = (None, -PROGRESS_PERIOD_S, None)   # (whole percent, time, status) of the last progress line
 
     def goal_started(self, mode, percentage):
         self.log.info_throttle(LOG_PERIOD_S, 'goal: %s from %.1f %%', mode.value, percentage)
@@ -58,11 +62,12 @@ class ServerLog:
 
     def progress(self, snapshot):
         """``Discharging... 57 % (11.62 V, -1.50 A)``: when the whole percent changed, at most every
-        PROGRESS_PERIOD_S (a fleet host's BatteryLog writes no progress)."""
-        whole = int(snapshot.percentage)
-        logged_percent, logged_at = self._progress
+        PROGRESS_PERIOD_S, and at once when the status changed (Empty says how to charge it: a battery that went
+        silent at 0 % looked hung); a fleet host's BatteryLog writes no progress."""
+        whole, status = int(snapshot.percentage), snapshot.status.value
+        logged_percent, logged_at, logged_status = self._progress
         now = self._clock()
-        if whole != logged_percent and now - logged_at >= PROGRESS_PERIOD_S:
-            self._progress = (whole, now)
-            self.log.progress('%s... %d %% (%.2f V, %+.2f A)', snapshot.status.value.capitalize(),
-                              whole, snapshot.voltage_v, snapshot.current_a)
+        if status != logged_status or (whole != logged_percent and now - logged_at >= PROGRESS_PERIOD_S):
+            self._progress = (whole, now, status)
+            self.log.progress('%s... %d %% (%.2f V, %+.2f A)%s', status.capitalize(), whole, snapshot.voltage_v,
+                              snapshot.current_a, EMPTY_HINT if status == EMPTY_STATUS else '')
