@@ -64,3 +64,11 @@ def test_a_robot_standing_on_the_dock_without_the_contact_backs_off_and_docks_ag
     assert phases == [patrol.CHARGING] and goals == [1], 'still %s after %.0f s on the dock without the contact' % (
         behaviour.phase, now - 100.0)
     assert farthest > 0.3, 'it docked again without leaving the contact\'s radius'
+
+
+def test_a_charge_goal_ended_by_a_server_shutting_down_is_information_in_words():
+    assert patrol.goal_failed_line('preempted', 'Preempted at 81.2 % (server shutting down, charging)') == (
+        False, 'the battery server is shutting down (Preempted at 81.2 % (server shutting down, charging)): the '
+               'charge goal is sent again when it is back')
+    assert patrol.goal_failed_line('aborted', 'the mode turned to discharge') == (
+        True, 'charge goal ended aborted (the mode turned to discharge): sending it again')

@@ -11,6 +11,7 @@ import math
 
 from battery_simulator.core.node_settings import Setting
 from battery_simulator.core.parameter_rules import is_number
+from battery_simulator.core.server_log import SHUTDOWN_TEXT
 
 PATROL, GO_TO_DOCK, CHARGING, UNDOCK = 'PATROL', 'GO_TO_DOCK', 'CHARGING', 'UNDOCK'
 PHASES = (PATROL, GO_TO_DOCK, CHARGING, UNDOCK)
@@ -28,6 +29,14 @@ DEFAULT_WAYPOINTS = [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.8]]
 DEFAULT_WAYPOINTS_FLAT = [c for point in DEFAULT_WAYPOINTS for c in point]
 #: how a charge goal ended, as the front end tells it
 GOAL_SUCCEEDED, GOAL_FAILED = 'succeeded', 'failed'
+
+
+def goal_failed_line(state_name, text):
+    """(is it a warning, the line) for a charge goal that ended otherwise than Full, sent again: a server that
+    shuts down (a launch's Ctrl-C, a respawn) is information, said in words, not an actionlib state number."""
+    if SHUTDOWN_TEXT in text:
+        return False, 'the battery server is shutting down (%s): the charge goal is sent again when it is back' % text
+    return True, 'charge goal ended %s (%s): sending it again' % (state_name, text)
 
 
 def waypoint_pairs(value):

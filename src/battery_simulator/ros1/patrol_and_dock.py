@@ -42,6 +42,8 @@ from battery_simulator.ros1.startup import init_node, read_private_settings
 STARTUP_WAIT_S = 30.0     # wall seconds to wait for the battery's action server
 FRESH_POSE_WAIT_S = 0.1   # wall seconds to wait for odometry newer than the last command
 GOAL_FAILED_STATES = (GoalStatus.ABORTED, GoalStatus.PREEMPTED, GoalStatus.REJECTED, GoalStatus.LOST)
+GOAL_STATE_NAMES = {GoalStatus.ABORTED: 'aborted', GoalStatus.PREEMPTED: 'preempted', GoalStatus.REJECTED: 'rejected',
+                    GoalStatus.LOST: 'lost'}
 
 
 def read_settings():
@@ -153,8 +155,9 @@ class PatrolAndDock:
         if state == GoalStatus.SUCCEEDED:
             return rule.GOAL_SUCCEEDED
         if state in GOAL_FAILED_STATES:
-            rospy.logwarn('charge goal ended in state %d (%s): sending it again',
-                          state, self._client.get_goal_status_text())
+            warning, line = rule.goal_failed_line(GOAL_STATE_NAMES.get(state, str(state)),
+                                                  self._client.get_goal_status_text())
+            (rospy.logwarn if warning else rospy.loginfo)(line)
             return rule.GOAL_FAILED
         return None
 

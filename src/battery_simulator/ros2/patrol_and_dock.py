@@ -30,6 +30,8 @@ from battery_simulator.ros2.startup import run_node, steady_clock
 STARTUP_WAIT_S = 30.0   # wall seconds to wait for the battery's action server and its first battery_status
 STARTUP_CHECK_S = 0.1
 PHASE_TOPIC = ros_names.PHASE
+GOAL_STATE_NAMES = {GoalStatus.STATUS_ABORTED: 'aborted', GoalStatus.STATUS_CANCELED: 'canceled',
+                    GoalStatus.STATUS_UNKNOWN: 'unknown'}
 ROS2_DEFAULTS = {'waypoints': rule.DEFAULT_WAYPOINTS_FLAT}
 
 
@@ -143,7 +145,8 @@ class PatrolAndDock:
         if status == GoalStatus.STATUS_SUCCEEDED:
             self._goal_outcome = rule.GOAL_SUCCEEDED
             return
-        self._node.get_logger().warning('charge goal ended in state %d (%s): sending it again' % (status, text))
+        warning, line = rule.goal_failed_line(GOAL_STATE_NAMES.get(status, str(status)), text)
+        (self._node.get_logger().warning if warning else self._node.get_logger().info)(line)
         self._goal_outcome = rule.GOAL_FAILED
 
 
