@@ -42,6 +42,8 @@ REMAP_JOIN = 0.05
 #: the config without hysteresis is taken where its replay of the fitted part is below this many times the
 #: config's with the preset's hysteresis
 VARIANT_GAIN = 0.8
+#: the charge branch's gap above the discharge branch tried at these fractions of the preset's (0: none)
+CHARGE_GAP_SCALES = (0.5, 0.0)
 
 
 @dataclass
@@ -179,14 +181,24 @@ def _fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_se
         built.append((replayed_fit_rmse(result), index, result))
         progress(0.9 + 0.03 * index, 'the OCV curve checked by replay')
         if params.ocv_charge_voltage_v:
-            # a sensor's noise at rest, replayed, walks the hysteresis state: none, taken only where the replay
-            # of the fitted part is clearly closer (a tie says nothing of what the charge branch is worth)
+            # a sensor's noise at rest, replayed, walks the hysteresis state; and a charge branch read from a
+            # charge's voltage holds the slow polarisation the RC pair models too (the A123 LFP cell: its
+            # model 30-47 mV above the cell's 1C charge, at the charge voltage by 70 % SOC, so a replay's
+            # charge stopped short there). The branch at a fraction of its gap, or none, taken only where the
+            # replay of the fitted part is clearly closer (a tie says nothing of what the branch is worth)
             base = built[-1][0]
-            for name, value, why in (('ocv_charge_voltage_v', (), 'no hysteresis: the replay of the fitted part '
-                                      'is closer without the preset\'s charge branch'),):
-                other = replace(result, params=replace(params, **{name: value}), fitted=dict(these_fitted),
-                                warnings=list(these_warnings))
-                other.fitted[name] = Fitted(value, why)
+            for scale in CHARGE_GAP_SCALES:
+                if scale:
+                    value = tuple(round(float(low + scale * (high - low)), 6) for low, high in zip(
+                        params.ocv_voltage_v, params.ocv_charge_voltage_v))
+                    why = ('the preset\'s charge branch at %g of its gap above the discharge branch: the replay '
+                           'of the fitted part is closer' % scale)
+                else:
+                    value, why = (), ('no hysteresis: the replay of the fitted part is closer without the '
+                                      'preset\'s charge branch')
+                other = replace(result, params=replace(params, ocv_charge_voltage_v=value),
+                                fitted=dict(these_fitted), warnings=list(these_warnings))
+                other.fitted['ocv_charge_voltage_v'] = Fitted(value, why)
                 score = replayed_fit_rmse(other)
                 if score < VARIANT_GAIN * base:
                     built.append((score, index, other))
