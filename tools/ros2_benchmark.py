@@ -301,6 +301,23 @@ def free_port():
         return probe.getsockname()[1]
 
 
+def levels_settled(n, started, within_s=600.0):
+    """When the dashboard had subscribed to every robot's battery_low and battery_critical (the last it makes):
+    steady state starts then. Until then each new subscription's first (transient local) message wakes it."""
+    node = Node('benchmark_levels_watch', start_parameter_services=False, enable_rosout=False)
+    try:
+        names = ['/bench%d/%s' % (k, level) for k in range(n) for level in ('battery_low', 'battery_critical')]
+        deadline = started + within_s
+        while time.monotonic() < deadline:
+            names = [name for name in names if node.count_subscribers(name) == 0]
+            if not names:
+                return '%.1f s after its start' % (time.monotonic() - started)
+            time.sleep(1.0)
+        return 'not within %g s (%d left)' % (within_s, len(names))
+    finally:
+        node.destroy_node()
+
+
 def dashboard(rows, n=100):
     """battery_dashboard beside a fleet of ``n`` at 1 Hz with the overview open in headless Chromium: the dashboard
     is started once the fleet host is ready, and timed to every battery in its API (its cards)."""
@@ -325,6 +342,7 @@ def dashboard(rows, n=100):
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                 env=dict(os.environ, PYTHONPATH=''))
         assert page.stdout.readline().strip() == 'open', 'the page did not show %d batteries' % n
+        levels_s = levels_settled(n, started)
         time.sleep(5.0)   # settle after start-up
         cpu = {}
         threads = [threading.Thread(target=lambda p=p: cpu.__setitem__(p.pid, cpu_percent(p.pid, CPU_WINDOW_S)))
@@ -339,8 +357,8 @@ def dashboard(rows, n=100):
         fresh = page.stdout.readline().strip()
         page.wait(30.0)
         rows.append(('battery_dashboard: %d batteries at 1 Hz, the page open (%.0f s)' % (n, CPU_WINDOW_S),
-                     '%.1f %% of a core, %.0f MB; every battery in its API %.1f s after its start' % (
-                         cpu[board.pid], memory, cards_s),
+                     '%.1f %% of a core, %.0f MB; every battery in its API %.1f s after its start, every level '
+                     'topic subscribed %s' % (cpu[board.pid], memory, cards_s, levels_s),
                      'ROS 1 (docs): %.1f %%; %s of %d fresh on the page; fleet host %.1f %%' % (
                          ROS1_DASHBOARD_CPU, fresh, n, cpu[host.pid]),
                      '<= %.1f %% (1.5 x ROS 1)' % (1.5 * ROS1_DASHBOARD_CPU)))
