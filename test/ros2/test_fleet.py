@@ -2,7 +2,6 @@
 on its own node (action, services, cmd_vel of either type, charger_contact, battery_status, battery_state,
 low/critical, the diagnostics status) and sets a robot's mode through set_charging; its figures at 100-1000
 robots are tools/ros2_benchmark.py's (docs/performance.md)."""
-import random
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -16,7 +15,7 @@ import pytest
 from battery_simulator.action import BatterySim
 from battery_simulator.msg import BatteryFleetState
 from battery_simulator.srv import Predict
-from battery_simulator.ros2.fleet_host import PARAMETER_SERVICES_UP_TO, Every
+from battery_simulator.ros2.fleet_host import PARAMETER_SERVICES_UP_TO
 from ros2_probe import DISCHARGING, LATCHED, NodeProcess, Probe, set_state, status_after
 
 ROBOTS = PARAMETER_SERVICES_UP_TO + 1
@@ -127,24 +126,3 @@ def test_the_fleets_states_follow_the_hosts_namespace_as_on_ros1(probe):
     finally:
         assert process.stop() == 0, process.output()[-2000:]
 
-
-
-def _fires(every, ticks):
-    return sum(1 for now in ticks if every.due(now))
-
-
-def test_what_the_host_does_every_period_keeps_its_rate_and_phase():
-    """The host's one timer ticks at update_rate and reads the clock after stepping every robot (0-0.4 s late at
-    1000 robots under load): each thing done every period is done once a period whatever that lateness, spread
-    over the ticks of its period, and after a stall goes on at its own phase without a burst to catch up."""
-    jitter = random.Random(42)
-    ticks = [k + 1.0 + jitter.uniform(0.0, 0.4) for k in range(200)]   # a 1 Hz timer, each tick 0-0.4 s late
-    assert _fires(Every(1.0, 1.0, 1.0), ticks) == 200
-    fine = [k * 0.1 + 0.1 + jitter.uniform(0.0, 0.04) for k in range(2000)]   # 10 Hz ticks, a 1 Hz status
-    assert _fires(Every(0.1, 1.0, 0.1), fine) == 200
-    assert _fires(Every(0.1, 1.0 / 3.0, 0.1), fine) in (599, 600, 601), 'a rate that is no multiple of the ticks'
-    every = Every(0.1, 1.0, 0.1)
-    assert [now for now in fine[:30] if every.due(now)] == [fine[0], fine[10], fine[20]], 'one tick a period'
-    every = Every(1.0, 1.0, 1.0)
-    assert [every.due(now) for now in (1.0, 2.0, 6.5, 7.0, 8.0)] == [True, True, True, True, True]
-    assert every.next == 9.0, 'a stall of 4.5 s: no burst, on at its own phase'

@@ -27,7 +27,6 @@ whole fleet at ``fleet_rate`` Hz.
     ``low_percentage``, ``critical_percentage``, ``hysteresis``: for every robot that does not set its own
 """
 import collections
-import math
 import time
 
 import yaml
@@ -36,8 +35,8 @@ from rclpy.node import Node
 
 from battery_simulator.core.battery import BatteryError
 from battery_simulator.core.config_files import load_yaml
-from battery_simulator.core.fleet import (FLEET_SETTINGS, FLEET_STATES, ROBOTS_DESCRIPTION, FleetError, fleet_states,
-                                          robot_configs, robot_params, robot_specs)
+from battery_simulator.core.fleet import (FLEET_SETTINGS, FLEET_STATES, ROBOTS_DESCRIPTION, Every, FleetError,
+                                          fleet_states, robot_configs, robot_params, robot_specs)
 from battery_simulator.core.resume_rule import resume_battery, say_ready
 from battery_simulator.core.state_file import FleetStateFile, fleet_save_period_s
 from battery_simulator.msg import BatteryFleetState
@@ -131,12 +130,7 @@ class Robot:
         self.front = BatterySimServer(self.node, self.battery, '', self.log, self.status, self.store,
                                       graph_types=graph_types)
         self.node.add_on_set_parameters_callback(self.front.on_set_parameters)
-
-    def add_front(self):
-        pass   # made with the robot's node
-
-    def update(self):
-        self.front.update()
+        self.update = self.front.update
 
 
 class SharedRobot:
@@ -144,11 +138,8 @@ class SharedRobot:
     action, the services, cmd_vel, charger_contact, battery_status, battery_state, low/critical, the diagnostics
     status), no node of its own, so no ``charging`` parameter: its mode is set through ``set_charging``,
     ``charger_contact`` or a goal. A node per robot costs its own endpoints and graph traffic on top of the
-    robot's (see PARAMETER_SERVICES_UP_TO).
-
-    Made in two steps: the battery and its status publishers at once (``battery_status`` runs from the host's
-    first tick), its action, services and inputs (``add_front``, 20 of its 27 DDS endpoints) after, a few
-    robots at a time from the host's executor (FleetHost.ROBOTS_PER_STEP_S)."""
+    robot's (see PARAMETER_SERVICES_UP_TO). Made in two steps: the battery and its status publishers (battery_status
+    runs from the host's first tick), then its action, services and inputs (``add_front``, from the executor)."""
 
     def __init__(self, spec, settings, params, store, host_node, live, graph_types):
         self.name = spec.name
@@ -195,33 +186,12 @@ def host_live_settings(node):
             for name in LIVE_PARAMETERS if was_given(node, name)}
 
 
-class Every:
-    """Something done every ``period_s``, looked at by a timer every ``tick_s``, first at ``first`` (monotonic s):
-    due at a tick up to half a tick before its time, the next one period on; after a stall, on at its own phase (no
-    burst to catch up). The rule this replaces (due when now >= due, the next at max(due + period, now)) moved the
-    next time to the latest tick seen, so a tick a few ms earlier in its period than the one before skipped it:
-    /battery_fleet/states at 0.52 Hz with 1000 robots under load."""
-
-    def __init__(self, first, period_s, tick_s):
-        self.next = first
-        self._period_s = period_s
-        self._slack_s = tick_s / 2.0
-
-    def due(self, now):
-        if now + self._slack_s < self.next:
-            return False
-        behind = now - self._slack_s - self.next
-        self.next += self._period_s * (math.floor(behind / self._period_s) + 1 if behind >= 0.0 else 1)
-        return True
-
-
 class FleetHost:
     """Every robot, and the few timers they share (on the host node)."""
 
-    #: a large fleet's robots get their action, services and inputs in steps of at most this long on the host's
-    #: executor (its ticks, a stop signal and the robots already complete are served in between), once every
-    #: robot's battery_status runs: at 1000 robots they are 20 000 of the 27 000 DDS endpoints, which took 39-72 s
-    #: to make on a loaded machine, every battery_status waiting behind them
+    #: a large fleet's robots get their action, services and inputs in steps of this long on the executor (ticks and a
+    #: stop signal served in between) once every battery_status runs: 24 000 of 1000 robots' 27 000 endpoints, which
+    #: took 39-72 s on a loaded machine with every battery_status waiting behind them
     FRONT_STEP_S = 0.25
     FRONT_PAUSE_S = 0.01
 
@@ -265,11 +235,8 @@ class FleetHost:
             node.create_timer(save_period_s, self._save, clock=steady_clock())
 
     def complete(self, on_complete):
-        """Give every robot its action, services and inputs (from the executor, FRONT_STEP_S at a time, where
-        some have none yet); then ``on_complete()``."""
-        if not self._without_front:
-            on_complete()
-            return
+        """Give every robot its action, services and inputs (from the executor, FRONT_STEP_S at a time); then
+        ``on_complete()``."""
         self._on_complete = on_complete
         self._front_timer = self._node.create_timer(self.FRONT_PAUSE_S, self._add_fronts, clock=steady_clock())
 
@@ -279,7 +246,6 @@ class FleetHost:
             self._without_front.popleft().add_front()
         if not self._without_front:
             self._node.destroy_timer(self._front_timer)
-            self._front_timer = None
             self._on_complete()
 
     def _on_set_parameters(self, parameters):
@@ -292,10 +258,10 @@ class FleetHost:
                         parameter.name, self._node.get_fully_qualified_name(), self.robots[0].name, parameter.name,
                         ', or call its set_charging' if parameter.name == ros_names.CHARGING_PARAM else '')))
             if parameter.name == TIME_SCALE.name and self._without_front:
-                return SetParametersResult(successful=False, reason=(
-                    '%s of %s: the fleet is still starting (%d of %d robots without their services yet); set it '
-                    'once it says ready' % (parameter.name, self._node.get_fully_qualified_name(),
-                                            len(self._without_front), len(self.robots))))
+                return SetParametersResult(successful=False, reason='%s of %s: the fleet is still starting (%d of %d '
+                                           'robots without their services); set it once it says ready' % (
+                                               parameter.name, self._node.get_fully_qualified_name(),
+                                               len(self._without_front), len(self.robots)))
             if parameter.name == TIME_SCALE.name:   # one rule for every robot: the first one's answer is theirs
                 first = self.robots[0].front.on_set_parameters([parameter])
                 if not first.successful:
