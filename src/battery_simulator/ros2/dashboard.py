@@ -17,7 +17,8 @@ from its own ``battery_status`` and ``battery_simulator/state``; only its
 ``battery_low`` / ``battery_critical`` (transient local, said on a change)
 are subscribed, on a node of their own (``<name>_levels``, no parameters, no
 rosout) spun by an executor of their own, which wakes only when a level
-changes. While a fleet topic has not spoken yet (at most 5 s) no robot's own
+changes, and made on that executor's thread, 100 at a time (made from the
+other thread, each woke it into a wait set over all of them). While a fleet topic has not spoken yet (at most 5 s) no robot's own
 topics are subscribed: its first message says which robots it carries. New
 subscriptions are made 100 at a time, the fleet's first. One timer: the
 graph scan (skipped when the graph has not changed).
