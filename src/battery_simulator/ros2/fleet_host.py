@@ -190,7 +190,7 @@ class FleetHost:
     """Every robot, and the few timers they share (on the host node)."""
 
     #: a large fleet's robots get their action, services and inputs in steps of this long on the executor (ticks and a
-    #: stop signal served in between) once every battery_status runs: 24 000 of 1000 robots' 27 000 endpoints, which
+    #: stop signal served in between) once every battery_status runs: 23 000 of 1000 robots' 27 000 endpoints, which
     #: took 39-72 s on a loaded machine with every battery_status waiting behind them
     FRONT_STEP_S = 0.25
     FRONT_PAUSE_S = 0.01
