@@ -1,7 +1,10 @@
-"""A fleet host's robots (core/fleet.py): names, configs, levels, and one line per bad entry."""
+"""A fleet host's robots (core/fleet.py): names, configs, levels, and one line per bad entry; what a host does
+every period (Every)."""
+import random
+
 import pytest
 
-from battery_simulator.core.fleet import FleetError, RobotSpec, robot_specs, staggered_percentage
+from battery_simulator.core.fleet import Every, FleetError, RobotSpec, robot_specs, staggered_percentage
 
 
 def test_a_count_names_the_robots_from_first_and_staggers_their_levels():
@@ -80,3 +83,24 @@ def test_the_fleet_states_message_holds_the_robots_with_a_state():
                   ('r1', SimpleNamespace(latest_battery=lambda: None)),     # before its first state, or dropout
                   ('r2', SimpleNamespace(latest_battery=lambda: 'state2'))]
     assert fleet_states(publishers) == (['r0', 'r2'], ['state0', 'state2'])
+
+
+def _fires(every, ticks):
+    return sum(1 for now in ticks if every.due(now))
+
+
+def test_what_the_host_does_every_period_keeps_its_rate_and_phase():
+    """The host's one timer ticks at update_rate and reads the clock after stepping every robot (0-0.4 s late at
+    1000 robots under load): each thing done every period is done once a period whatever that lateness, spread
+    over the ticks of its period, and after a stall goes on at its own phase without a burst to catch up."""
+    jitter = random.Random(42)
+    ticks = [k + 1.0 + jitter.uniform(0.0, 0.4) for k in range(200)]   # a 1 Hz timer, each tick 0-0.4 s late
+    assert _fires(Every(1.0, 1.0, 1.0), ticks) == 200
+    fine = [k * 0.1 + 0.1 + jitter.uniform(0.0, 0.04) for k in range(2000)]   # 10 Hz ticks, a 1 Hz status
+    assert _fires(Every(0.1, 1.0, 0.1), fine) == 200
+    assert _fires(Every(0.1, 1.0 / 3.0, 0.1), fine) in (599, 600, 601), 'a rate that is no multiple of the ticks'
+    every = Every(0.1, 1.0, 0.1)
+    assert [now for now in fine[:30] if every.due(now)] == [fine[0], fine[10], fine[20]], 'one tick a period'
+    every = Every(1.0, 1.0, 1.0)
+    assert [every.due(now) for now in (1.0, 2.0, 6.5, 7.0, 8.0)] == [True, True, True, True, True]
+    assert every.next == 9.0, 'a stall of 4.5 s: no burst, on at its own phase'

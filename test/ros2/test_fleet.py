@@ -68,7 +68,9 @@ def test_a_fleet_over_100_keeps_every_robots_names_and_sets_its_mode_by_set_char
                           '-p', 'time_scale:=1.0')
     last = '/big%d' % (ROBOTS - 1)
     try:
+        # battery_status first, for every robot; the action, services and inputs follow, then the host says ready
         assert probe.wait_for(last + '/battery_status', BatteryState, timeout_s=90.0) is not None, process.output()
+        assert process.wait_for_output('battery_fleet ready', 90.0), process.output()[-2000:]
         topics = dict(probe.node.get_topic_names_and_types())
         for name in ('battery_status', 'battery_state', 'battery_low', 'battery_critical', 'cmd_vel',
                      'charger_contact', 'battery_simulator/_action/status'):
@@ -123,3 +125,4 @@ def test_the_fleets_states_follow_the_hosts_namespace_as_on_ros1(probe):
         assert sorted(fleet.names) == ['nsfleet0', 'nsfleet1']
     finally:
         assert process.stop() == 0, process.output()[-2000:]
+

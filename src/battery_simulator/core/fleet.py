@@ -6,6 +6,7 @@ optional. What a robot does not set comes from the host's defaults; with a
 count and no fleet-wide initial percentage the levels are staggered as
 fleet.launch always did: 100, 95, 90, ..., wrapping at 20.
 """
+import math
 import re
 from dataclasses import dataclass, replace
 
@@ -168,3 +169,22 @@ def fleet_states(robots):
             names.append(name)
             batteries.append(battery)
     return names, batteries
+
+
+class Every:
+    """Something done every ``period_s``, looked at by a timer every ``tick_s``, first at ``first`` (monotonic s):
+    due at a tick up to half a tick before its time, the next one period on; after a stall, on at its own phase (no
+    burst to catch up). The ROS 2 fleet host's robots' battery_status, diagnostics and fleet states: robot k's
+    status on tick k mod (ticks a period), so every robot's first one goes within one period of the first tick."""
+
+    def __init__(self, first, period_s, tick_s):
+        self.next = first
+        self._period_s = period_s
+        self._slack_s = tick_s / 2.0
+
+    def due(self, now):
+        if now + self._slack_s < self.next:
+            return False
+        behind = now - self._slack_s - self.next
+        self.next += self._period_s * (math.floor(behind / self._period_s) + 1 if behind >= 0.0 else 1)
+        return True
