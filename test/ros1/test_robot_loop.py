@@ -72,28 +72,45 @@ class TestRobotLoop(unittest.TestCase):
         self.state.wait_until(lambda m: m.charging_state == 'Discharging', 5.0, 'discharging')
 
     def drained_ah(self, duration_sim_s):
-        """Charge drawn over ``duration_sim_s`` simulated seconds (from the server's own updates)."""
+        """(charge drawn, mean voltage, the motion load's charge by the server's own load_power_w) over
+        ``duration_sim_s`` simulated seconds, from the server's own updates."""
         start = self.state.count()
         first = self.state.next_after(start)
         last = self.state.wait_new(start, lambda m: (m.battery.header.stamp - first.battery.header.stamp).to_sec()
                                    * TIME_SCALE >= duration_sim_s, 2 * duration_sim_s / TIME_SCALE + 5, 'the window')
         elapsed_sim_s = (last.battery.header.stamp - first.battery.header.stamp).to_sec() * TIME_SCALE
         voltage = 0.5 * (first.battery.voltage + last.battery.voltage)
-        return (first.battery.charge - last.battery.charge) * duration_sim_s / elapsed_sim_s, voltage
+        states = self.state.since(start)
+        window = states[:next(k for k, m in enumerate(states) if m is last) + 1]
+        # each update's load_power_w is its step's average motion power (a cmd_vel counts from its arrival
+        # until the next one or its timeout): what the window's motion drew, as the server accounted it
+        motion_j = sum(later.load_power_w * (later.battery.header.stamp - earlier.battery.header.stamp).to_sec()
+                       * TIME_SCALE for earlier, later in zip(window, window[1:]))
+        scale = duration_sim_s / elapsed_sim_s
+        return ((first.battery.charge - last.battery.charge) * scale, voltage,
+                motion_j / voltage / 3600.0 * scale)
 
     def test_driving_drains_more_than_standing_by_the_configured_power(self):
-        standing_ah, _ = self.drained_ah(60.0)
+        standing_ah, _, _ = self.drained_ah(60.0)
         drive = Repeater(self.cmd_vel, Twist())
         drive.msg.linear.x = 0.5
         drive.start()
         try:
             self.state.wait_until(lambda m: m.load_power_w > 0, 5.0, 'the motion load')
-            moving_ah, voltage = self.drained_ah(60.0)
+            moving_ah, voltage, motion_ah = self.drained_ah(60.0)
         finally:
             drive.stop.set()
-        expected_ah = DRIVE_W_PER_MPS * 0.5 / voltage * 60.0 / 3600.0
-        self.assertAlmostEqual(moving_ah - standing_ah, expected_ah, delta=0.05 * expected_ah,
-                               msg='extra drain %.5f Ah, expected %.5f Ah' % (moving_ah - standing_ah, expected_ah))
+        # at 0.5 m/s the configured power; a busy machine can starve this test's 20 Hz repeater past the
+        # cmd_vel timeout (0.5 s: the robot stands meanwhile), so the drain is checked against the motion the
+        # server accounted (load_power_w), which must be the configured power whenever it moves
+        full_ah = DRIVE_W_PER_MPS * 0.5 / voltage * 60.0 / 3600.0
+        self.assertGreater(motion_ah, 0.3 * full_ah, 'the drive reached the server for %.0f %% of the window'
+                           % (100.0 * motion_ah / full_ah))
+        self.assertAlmostEqual(moving_ah - standing_ah, motion_ah, delta=0.05 * full_ah,
+                               msg='extra drain %.5f Ah, the motion load %.5f Ah (%.5f Ah at the full window)'
+                               % (moving_ah - standing_ah, motion_ah, full_ah))
+        moving_powers = {round(m.load_power_w, 3) for m in self.state.since(0) if m.load_power_w > 0}
+        self.assertIn(round(DRIVE_W_PER_MPS * 0.5, 3), moving_powers, 'the configured power while driving')
         stopped = self.state.wait_until(lambda m: m.load_power_w == 0.0, 5.0, 'a stale cmd_vel counts as standing')
         self.assertAlmostEqual(stopped.battery.current, -1.5, places=3)
 

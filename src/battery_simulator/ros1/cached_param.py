@@ -36,6 +36,8 @@ class CachedParam:
         self.changed = True     # read from the master at the next get()
         self._subscribed = False
         self._value = None
+        self._sets = 0          # this node's own set() calls: a read begun before one of them is stale
+        self._lock = threading.Lock()
 
     def get(self, default=None):
         """The value, or ``default`` while it is unset (ConnectionError/OSError: the master is gone)."""
@@ -43,13 +45,25 @@ class CachedParam:
             self._subscribe()
         if self.changed:
             self.changed = False   # before reading: a push from now on marks it again
-            self._value = self._from_master()
-        return default if self._value is None else self._value
+            with self._lock:
+                sets_before = self._sets
+            value = self._from_master()
+            with self._lock:
+                # a set() of this node while the master answered: the read may predate it (two CPU hogs: the
+                # charger contact's 1 overwritten by a read begun before it, the mode turned back for an update
+                # and a discharge goal aborted 'by the parameter'); the set's value stands, the push re-reads
+                if self._sets == sets_before:
+                    self._value = value
+        with self._lock:
+            value = self._value
+        return default if value is None else value
 
     def set(self, value):
         """Set it on the master (the push of it then reads it back once)."""
         rospy.set_param(self.name, value)
-        self._value = value
+        with self._lock:
+            self._sets += 1
+            self._value = value
 
     def _subscribe(self):
         with _followed_lock:
