@@ -65,10 +65,12 @@ def rss_mb(pid):
     return float('nan')
 
 
-def cpu_percent(pid, window_s):
-    before, started = cpu_seconds(pid), time.monotonic()
+def cpu_percent(pids, window_s):
+    """{pid: % of a core} of each of ``pids`` over one window, the same for all (graph_benchmark.py's twin)."""
+    before, started = {pid: cpu_seconds(pid) for pid in pids}, time.monotonic()
     time.sleep(window_s)   # a measurement window, not a wait for a condition
-    return 100.0 * (cpu_seconds(pid) - before) / (time.monotonic() - started)
+    elapsed_s = time.monotonic() - started
+    return {pid: 100.0 * (cpu_seconds(pid) - before[pid]) / elapsed_s for pid in pids}
 
 
 class Listener:
@@ -117,13 +119,7 @@ def one_battery(rows):
         while len(listener.first) < 2 and time.monotonic() < deadline:
             time.sleep(0.1)
         time.sleep(3.0)   # settle after start-up
-        cpu = {}
-        threads = [threading.Thread(target=lambda p=p: cpu.__setitem__(p.pid, cpu_percent(p.pid, CPU_WINDOW_S)))
-                   for p in (sim, bare)]
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join()
+        cpu = cpu_percent([sim.pid, bare.pid], CPU_WINDOW_S)
         rows.append(('one battery (battery_sim: 2 nodes, 10 Hz model, 1 Hz status)',
                      '%.1f %% of a core, %.0f MB' % (cpu[sim.pid], rss_mb(sim.pid)),
                      'bare rclpy timer publisher: %.1f %%, %.0f MB' % (cpu[bare.pid], rss_mb(bare.pid)), ''))
@@ -225,13 +221,7 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
             time.sleep(0.2)
         ready_s = time.time() - started
         time.sleep(10.0)   # settle after start-up
-        cpu = {}
-        threads = [threading.Thread(target=lambda p=p: cpu.__setitem__(p.pid, cpu_percent(p.pid, CPU_WINDOW_S)))
-                   for p in (host, bare)]
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join()
+        cpu = cpu_percent([host.pid, bare.pid], CPU_WINDOW_S)
         memory = rss_mb(host.pid)
         stopped = time.monotonic()
         os.kill(host.pid, signal.SIGINT)
@@ -351,13 +341,7 @@ def dashboard(rows, n=100):
         # the host's 27 000 endpoints for minutes after they exist (both processes busy), so the last is the figure
         windows = []
         for _ in range(max(1, int(DASHBOARD_WATCH_S / CPU_WINDOW_S))):
-            cpu = {}
-            threads = [threading.Thread(target=lambda p=p: cpu.__setitem__(p.pid, cpu_percent(p.pid, CPU_WINDOW_S)))
-                       for p in (board, host)]
-            for thread in threads:
-                thread.start()
-            for thread in threads:
-                thread.join()
+            cpu = cpu_percent([board.pid, host.pid], CPU_WINDOW_S)
             windows.append(cpu[board.pid])
         memory = rss_mb(board.pid)
         page.stdin.write('\n')
