@@ -16,7 +16,6 @@ PROGRESS_PERIOD_S = 1.0
 SHUTDOWN_TEXT = 'server shutting down'
 #: the progress line at Empty says how to charge (the action's charge goal, the charger's service)
 EMPTY_HINT = ': cut off; charge it with a charge goal (battery_sim_client 1) or set_charging'
-EMPTY_STATUS = Status.EMPTY.value
 
 
 def charger_reply(connected):
@@ -64,10 +63,10 @@ class ServerLog:
         """``Discharging... 57 % (11.62 V, -1.50 A)``: when the whole percent changed, at most every
         PROGRESS_PERIOD_S, and at once when the status changed (Empty says how to charge it: a battery that went
         silent at 0 % looked hung); a fleet host's BatteryLog writes no progress."""
-        whole, status = int(snapshot.percentage), snapshot.status.value
+        whole, status = int(snapshot.percentage), snapshot.status
         logged_percent, logged_at, logged_status = self._progress
         now = self._clock()
-        if status != logged_status or (whole != logged_percent and now - logged_at >= PROGRESS_PERIOD_S):
+        if status is not logged_status or (whole != logged_percent and now - logged_at >= PROGRESS_PERIOD_S):
             self._progress = (whole, now, status)
-            self.log.progress('%s... %d %% (%.2f V, %+.2f A)%s', status.capitalize(), whole, snapshot.voltage_v,
-                              snapshot.current_a, EMPTY_HINT if status == EMPTY_STATUS else '')
+            self.log.progress('%s... %d %% (%.2f V, %+.2f A)%s', status.value.capitalize(), whole,
+                              snapshot.voltage_v, snapshot.current_a, EMPTY_HINT if status is Status.EMPTY else '')

@@ -43,7 +43,7 @@ from battery_simulator.robot.demo_settings import CLOCK_PACE_ON, SETTINGS, START
 from battery_simulator.ros2.one_battery import OneBattery
 from battery_simulator.ros2.cmd_vel_gate import CmdVelGate
 from battery_simulator.ros2.dock_contact import DockContact
-from battery_simulator.ros2.events_executor import fleet_executor
+from battery_simulator.ros2.events_executor import many_entities_executor
 from battery_simulator.ros2.fake_base import FakeBase
 from battery_simulator.ros2.patrol_and_dock import ROS2_DEFAULTS, PatrolAndDock
 from battery_simulator.ros2.sim_clock import SimClock
@@ -120,7 +120,7 @@ def main(args=None):
                 unknown[0], demo_node.get_fully_qualified_name(), ', '.join(s.name for s in SETTINGS))),
                 demo_node.get_logger())
         demo = Demo(demo_node, settings)
-        executor = fleet_executor()
+        executor = many_entities_executor()
         for node in demo.nodes:
             executor.add_node(node)
         claim = BatteryClaim(demo.battery_node, [demo.battery_node.get_namespace()],

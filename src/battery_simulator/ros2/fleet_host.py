@@ -46,7 +46,7 @@ from battery_simulator.ros2 import prediction_service
 from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2.battery_settings import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
                                                      declare_mode, make_battery, read_publisher_settings)
-from battery_simulator.ros2.events_executor import fleet_executor
+from battery_simulator.ros2.events_executor import many_entities_executor
 from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
 from battery_simulator.ros2.log import RobotLog
 from battery_simulator.ros2.messages import SimState
@@ -322,7 +322,7 @@ def main(args=None):
         node = Node('battery_fleet')
         forget_profile(profile)
         explain_parameter_refusals(node)
-        executor = fleet_executor()
+        executor = many_entities_executor()
         executor.add_node(node)
         host = claim = None
         try:
