@@ -153,6 +153,7 @@ def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
     assert figures['cells_series'] == 1
     assert figures['capacity_ah'] == pytest.approx(measured_capacity, rel=0.05), \
         'capacity %.3f Ah, measured %.3f Ah' % (figures['capacity_ah'], measured_capacity)
+    assert 'cutoff_soc' in figures['report'], figures['report']   # the 1C cut-off is not the table's SOC 0
     assert figures['held_mv'] <= LFP_HELD_MV, 'held out %.1f mV per cell' % figures['held_mv']
     us06, fuds = figures['predicted_mv']   # each replayed whole from the SOC its first voltage gives
     assert us06 <= LFP_US06_MV and fuds <= LFP_FUDS_MV, 'predicted US06 %.1f, FUDS %.1f mV per cell' % (us06, fuds)
@@ -161,9 +162,43 @@ def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
 #: the DST's last 40 % (down to 2.0 V) replayed with the logged current: 42.7 mV per cell measured (65.3 while the
 #: replay held each row's current until the next row, one sample late for this cycler; see docs/fit.md)
 #: 30.0 since the preset's charge branch is tried at half its gap (its model charged at 3.6 V by 70 % SOC, a
-#: replay's charge stopped short: 42.7); the other two cycles predicted: US06 30.1 (39.4), FUDS 70.1 (94.8)
-LFP_HELD_MV = 33.0
-LFP_US06_MV, LFP_FUDS_MV = 33.0, 75.0
+#: replay's charge stopped short: 42.7); the other two cycles predicted: US06 30.1 (39.4), FUDS 70.1 (94.8).
+#: 26.5, US06 21.7, FUDS 54.9 since the CC-CV charge's end is where its taper ends (not where it fell below 2 %
+#: of the log's largest current: 0.0036 Ah short) and the LFP table's SOC 0 lies below a loaded cut-off (the
+#: 1C cut-off pinned at the SOC of the voltage its rest relaxed to: 1.063 Ah from full to the table's SOC 0)
+LFP_HELD_MV = 28.0
+LFP_US06_MV, LFP_FUDS_MV = 24.0, 58.0
+
+
+def test_a_cc_cv_charge_ends_where_its_taper_ends():
+    """The A123 cell's taper falls below 2 % of the log's largest current (0.066 A) before its charger stops
+    at 0.055 A: full is the taper's last charging sample, 0.0036 Ah later (before: the first below 2 %)."""
+    from battery_simulator.core.fit.conventions import prepare
+    from battery_simulator.core.fit.known import fit_mask, known_charge
+    from battery_simulator.core.fit.log_reader import read_log
+    log = prepare(read_log(A123))
+    known = known_charge([log], [fit_mask(log, 0.4)])
+    full = known.full_at[0]
+    charge = counted_charge_ah(log)
+    assert 0.0 < log.current_a[full] < 0.066 and log.current_a[full + 1] <= 0.0, log.current_a[full - 2:full + 3]
+    assert charge[full] == pytest.approx(charge.max(), abs=1e-4)
+
+
+def test_an_lfp_cut_off_under_load_is_pinned_at_the_soc_its_rest_shows():
+    """LFP's table puts SOC 0 (2.0 V) below where a loaded cut-off stops (the A123 cell relaxes to 2.59 V within
+    2 minutes of its 1C cut-off): the capacity from full to that cut-off is 1 - that SOC of the capacity. A
+    Li-ion preset's capacity is left as counted."""
+    from battery_simulator.core.config_files import preset
+    from battery_simulator.core.fit.known import Known, pinned_at_dynamic_cutoff
+    lfp = preset('a123_lfp_cell')
+    fitted = {}
+    known = pinned_at_dynamic_cutoff(Known(capacity_ah=1.0, empty_rest_v=2.6, full_at=[5]), lfp, 1, fitted)
+    soc = fitted['cutoff_soc'].value
+    assert 0.01 < soc < 0.05 and known.capacity_ah == pytest.approx(1.0 / (1.0 - soc))
+    assert np.interp(soc, lfp.ocv_soc, lfp.ocv_voltage_v) == pytest.approx(2.6, abs=1e-3)
+    for params, rest in ((preset('lg_hg2_cell'), 3.2), (lfp, None)):
+        same = Known(capacity_ah=1.0, empty_rest_v=rest, full_at=[5])
+        assert pinned_at_dynamic_cutoff(same, params, 1, {}) is same
 
 
 def _step_log(path, measured_at_sample, period_s=1.0, r0=0.17):

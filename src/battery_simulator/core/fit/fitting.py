@@ -23,7 +23,8 @@ from battery_simulator.core.fit.electrical import (electrical_values, fit_electr
                                                     non_negative_lstsq, parallel_count, steady_current)
 from battery_simulator.core.fit.heat import fit_thermal, model_temperature
 from battery_simulator.core.fit.known import (check_capacity, check_units, cutoff_warning, fit_mask,
-                                               known_charge, log_has_rest, preset_temperature)
+                                               known_charge, log_has_rest, pinned_at_dynamic_cutoff,
+                                               preset_temperature)
 from battery_simulator.core.fit.loads_charger import current_limits, fit_charger, fit_loads
 from battery_simulator.core.fit.ocv_curve import learn_curve
 from battery_simulator.core.fit.series import CHEMISTRY_CLEAR, series_count
@@ -82,6 +83,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     cells_series, why, chemistry_name, chemistry_params, level_off = series_count(
         logs, masks, candidates, known, cells_series, why, progress, warnings)
     fitted['cells_series'] = Fitted(cells_series, why)
+    known = pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted)
     if len(candidates) > 1:
         fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape fits the fitted part best '
                                      'of %s (another than the first only where %.3g times better)'

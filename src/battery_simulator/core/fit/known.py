@@ -5,7 +5,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from battery_simulator.core.fit import FitError
+from battery_simulator.core.fit import FitError, Fitted
 from battery_simulator.core.fit.circuit import counted_charge_ah
 
 #: a rest: |current| below this fraction of the log's largest (or REST_A) for at least REST_S
@@ -27,6 +27,8 @@ PAIR_SAMPLES = 300
 KNEE_SPAN, KNEE_RATE = 0.05, 3.0
 #: how far a known capacity (log) or starting SOC may move in the fit
 KNOWN_SPREAD = 0.01
+#: a rest after a cut-off this long shows the OCV there; a cut-off's SOC from it at most CUTOFF_SOC_MAX
+CUTOFF_REST_S, CUTOFF_SOC_MAX = 60.0, 0.1
 
 
 @dataclass
@@ -39,6 +41,7 @@ class Known:
     full_at: list = None           # per log: the sample where a CC-CV charge ended (SOC 1), or None
     source: str = ''
     empty_at: list = None          # per log, where no full charge fixes the start: a cut-off's sample (SOC 0)
+    empty_rest_v: float = None     # the voltage a rest after the capacity's cut-off relaxed to (pack), or None
 
     def starts(self, logs):
         """Each log's starting SOC when the capacity and every start are fixed, else None."""
@@ -74,11 +77,13 @@ def known_charge(logs, masks):
         return Known(capacity_ah=gauge[0], soc0=gauge[1], source='the logged percentage against the counted charge')
     full_at = [_full_charge_end(log, mask) for log, mask in zip(logs, masks)]
     capacity = None
+    rest_v = None
     for log, mask, full in zip(logs, masks, full_at):
         empty = _cutoff_end(log, mask)
         if full is not None and empty is not None:
             charge = counted_charge_ah(log)
             capacity = abs(charge[full] - charge[empty])
+            rest_v = _rest_after(log, mask, empty)
             break
     if capacity is None and all(f is None for f in full_at):
         # no full charge: a cut-off still pins SOC 0 (the start is then the charge counted to it over the
@@ -87,7 +92,7 @@ def known_charge(logs, masks):
         if any(e is not None for e in empty_at):
             return Known(empty_at=empty_at, source='a cut-off (SOC 0)')
         return Known()
-    return Known(capacity_ah=capacity, full_at=full_at,
+    return Known(capacity_ah=capacity, full_at=full_at, empty_rest_v=rest_v,
                  source='a CC-CV charge\'s end (SOC 1)' + (' and a cut-off (SOC 0)' if capacity else ''))
 
 
@@ -108,6 +113,10 @@ def _full_charge_end(log, mask):
         tail = slice(start + (stop - start) * 3 // 4, stop)
         if i[stop - 1] < 0.3 * peak and np.min(v[tail]) > top * 0.99:
             found = stop - 1
+            # the taper goes on below the threshold to the charger's termination current: full is where it ends
+            # (the A123 cell's taper from 0.066 A to 0.055 A put in 0.0036 Ah, 0.35 % of its capacity)
+            while found + 1 < len(i) and mask[found + 1] and i[found + 1] > 0.0 and v[found + 1] > top * 0.99:
+                found += 1
     return found
 
 
@@ -129,6 +138,37 @@ def _cutoff_end(log, mask, knee=False):
                 (not knee or _ends_in_a_knee(t[start:stop], v[start:stop])):
             found = end
     return found
+
+
+def _rest_after(log, mask, end):
+    """The voltage at the end of a rest of at least CUTOFF_REST_S that begins at sample ``end`` (a cut-off's)
+    within the fitted part, or None."""
+    i, t = log.current_a, log.time_s
+    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    last = end
+    while last + 1 < len(i) and mask[last + 1] and abs(i[last]) <= threshold:
+        last += 1   # (sample last's voltage answers the current of the interval before it)
+    if abs(i[last]) > threshold:
+        last -= 1
+    return float(log.voltage_v[last]) if last > end and t[last] - t[end] >= CUTOFF_REST_S else None
+
+
+def pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted):
+    """``known`` with its capacity counted to the table's SOC 0 where the chemistry's table puts a loaded
+    cut-off above it (LFP, core/lfp_tables.py: the cell relaxes by 0.6-0.7 V after a cut-off at 2.0 V, and
+    lighter loads take 1 % more charge from full): the SOC of the voltage the rest after the cut-off
+    relaxed to, on the discharge branch, is that cut-off's; the capacity from full to it is 1 - that SOC."""
+    if chemistry_params.chemistry != 'lfp' or known.capacity_ah is None or known.empty_rest_v is None:
+        return known
+    volts = known.empty_rest_v / cells_series
+    soc = float(np.interp(volts, chemistry_params.ocv_voltage_v, chemistry_params.ocv_soc))
+    if not 0.0 < soc < CUTOFF_SOC_MAX:
+        return known
+    fitted['cutoff_soc'] = Fitted(round(soc, 4), 'the cut-off under load is not empty: the rest after it relaxed '
+                                  'to %.3f V per cell, the OCV at this SOC; the capacity from full to it %.4g Ah, '
+                                  'so %.4g Ah to the table\'s SOC 0' % (volts, known.capacity_ah,
+                                                                       known.capacity_ah / (1.0 - soc)))
+    return replace(known, capacity_ah=known.capacity_ah / (1.0 - soc))
 
 
 def _ends_in_a_knee(t, v):
