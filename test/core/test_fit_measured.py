@@ -186,16 +186,18 @@ def test_a_cc_cv_charge_ends_where_its_taper_ends():
 
 def test_an_lfp_cut_off_under_load_is_pinned_at_the_soc_its_rest_shows():
     """LFP's table puts SOC 0 (2.0 V) below where a loaded cut-off stops (the A123 cell relaxes to 2.59 V within
-    2 minutes of its 1C cut-off): the capacity from full to that cut-off is 1 - that SOC of the capacity. A
-    Li-ion preset's capacity is left as counted."""
+    2 minutes of its 1C cut-off): the capacity from full to that cut-off is 1 - that SOC of the capacity, that
+    SOC taken at most 4 % (a cold cell's cut-off relaxes higher). A Li-ion preset's capacity is left as counted."""
     from battery_simulator.core.config_files import preset
-    from battery_simulator.core.fit.known import Known, pinned_at_dynamic_cutoff
+    from battery_simulator.core.fit.known import CUTOFF_SOC_MAX, Known, pinned_at_dynamic_cutoff
     lfp = preset('a123_lfp_cell')
     fitted = {}
     known = pinned_at_dynamic_cutoff(Known(capacity_ah=1.0, empty_rest_v=2.6, full_at=[5]), lfp, 1, fitted)
     soc = fitted['cutoff_soc'].value
     assert 0.01 < soc < 0.05 and known.capacity_ah == pytest.approx(1.0 / (1.0 - soc))
     assert np.interp(soc, lfp.ocv_soc, lfp.ocv_voltage_v) == pytest.approx(2.6, abs=1e-3)
+    cold = pinned_at_dynamic_cutoff(Known(capacity_ah=1.0, empty_rest_v=3.1, full_at=[5]), lfp, 1, {})
+    assert cold.capacity_ah == pytest.approx(1.0 / (1.0 - CUTOFF_SOC_MAX))   # a cold cell's: within 4 % of counted
     for params, rest in ((preset('lg_hg2_cell'), 3.2), (lfp, None)):
         same = Known(capacity_ah=1.0, empty_rest_v=rest, full_at=[5])
         assert pinned_at_dynamic_cutoff(same, params, 1, {}) is same

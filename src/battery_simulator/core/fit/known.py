@@ -27,8 +27,10 @@ PAIR_SAMPLES = 300
 KNEE_SPAN, KNEE_RATE = 0.05, 3.0
 #: how far a known capacity (log) or starting SOC may move in the fit
 KNOWN_SPREAD = 0.01
-#: a rest after a cut-off this long shows the OCV there; a cut-off's SOC from it at most CUTOFF_SOC_MAX
-CUTOFF_REST_S, CUTOFF_SOC_MAX = 60.0, 0.1
+#: a rest after a cut-off this long shows the OCV there; a cut-off's SOC from it taken at most CUTOFF_SOC_MAX
+#: (a cold cell cuts off far above the table's knee and relaxes higher: its capacity stays within 4 % of the
+#: charge counted to its cut-off, the cycler's figure)
+CUTOFF_REST_S, CUTOFF_SOC_MAX = 60.0, 0.04
 
 
 @dataclass
@@ -162,12 +164,15 @@ def pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted):
         return known
     volts = known.empty_rest_v / cells_series
     soc = float(np.interp(volts, chemistry_params.ocv_voltage_v, chemistry_params.ocv_soc))
-    if not 0.0 < soc < CUTOFF_SOC_MAX:
+    if not soc > 0.0:
         return known
-    fitted['cutoff_soc'] = Fitted(round(soc, 4), 'the cut-off under load is not empty: the rest after it relaxed '
-                                  'to %.3f V per cell, the OCV at this SOC; the capacity from full to it %.4g Ah, '
-                                  'so %.4g Ah to the table\'s SOC 0' % (volts, known.capacity_ah,
-                                                                       known.capacity_ah / (1.0 - soc)))
+    taken = min(soc, CUTOFF_SOC_MAX)
+    fitted['cutoff_soc'] = Fitted(round(taken, 4), 'the cut-off under load is not empty: the rest after it relaxed '
+                                  'to %.3f V per cell, the OCV at SOC %.4f%s; the capacity from full to it %.4g Ah, '
+                                  'so %.4g Ah to the table\'s SOC 0' % (
+                                      volts, soc, ' (taken at most %g)' % CUTOFF_SOC_MAX if soc > taken else '',
+                                      known.capacity_ah, known.capacity_ah / (1.0 - taken)))
+    soc = taken
     return replace(known, capacity_ah=known.capacity_ah / (1.0 - soc))
 
 
