@@ -388,6 +388,18 @@ def test_the_replay_names_each_correction_and_the_learned_capacity():
     assert float(rows[-1]['gauge_soc']) == 1.0
 
 
+def test_the_replay_reads_a_rest_given_as_one_row():
+    """A profile as a user writes it: one row per load change. The rest of 2 h is sampled as the gauge samples
+    (in --max-step pieces), so it is read: before, the replay stepped a rest in one step, the gauge saw it
+    only once (no voltage change to look at) and read nothing, the 5-point start error stayed."""
+    from battery_simulator.core.replay import OUTPUT_COLUMNS, replay
+    profile = [(0.0, 'current', 0.0), (7200.0, 'current', -ONE_C), (7800.0, 'current', -ONE_C)]
+    rows = [dict(zip(OUTPUT_COLUMNS, row)) for row in replay(
+        params(gauge={'initial_error': 5.0}), profile, state_of_charge=0.9, max_step_s=10.0)]
+    assert rows[1]['gauge_event'] == 'ocv_rest'
+    assert abs(float(rows[1]['gauge_soc']) - float(rows[1]['soc'])) <= 0.01, rows[1]
+
+
 # -- predict: what the robot would read at the end --------------------------------------------------
 
 @pytest.mark.parametrize('ambient_c', [25.0, -10.0])

@@ -94,6 +94,7 @@ class LearningGauge(CoulombCounter):
                  '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_passed_as',
                  '_unusable_for', '_unusable_loaded', '_since_unusable_s', '_average_dt', '_average_decay', '_watching',
                  '_shown', '_model')
+    watches_rests = True
 
     def __init__(self, config, true_capacity_ah, true_soc, model):
         """``model``: the pack (core/battery_model.py) whose OCV and resistance tables the gauge takes as
