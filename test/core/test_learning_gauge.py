@@ -213,6 +213,30 @@ def test_a_charge_stopped_half_a_percent_before_its_termination_shows_99_percent
     assert END_OF_CHARGE not in kinds(model)
 
 
+def test_an_imbalanced_pack_resting_on_its_charger_stays_full_and_recharges_through_the_hold():
+    """A pack whose first group starts 5 % high charges to less than full (the highest group ends the charge);
+    the charger holds it with no current. The gauge's end of charge shows 100 % and FULL; 30 min later the rest
+    reads the groups' mean open-circuit voltage: 97.7 %. Before, that reading also cleared the end of charge:
+    battery_status said CHARGING at 97.7 % with nothing flowing, for ever (a robot waiting on the dock for
+    FULL never left). Now the reading corrects the percentage and FULL stays until a current is counted
+    below the hold: a discharge, or a charge, which holds 99 % again until its own end."""
+    from battery_simulator.core.battery_record import gauge_summary, reported_status
+
+    def status(model):
+        return reported_status(model.status, gauge_summary(model).full)
+    model = make_model(params(groups=[{'initial_soc_offset': 0.05}, {}, {}]), 0.3, Mode.IDLE)
+    hold(model, Mode.CHARGE, until=lambda m: m.gauge.full)
+    assert shown(model) == 100.0 and status(model) is Status.FULL
+    hold(model, Mode.CHARGE, 7200.0)   # on the dock
+    assert OCV_REST in kinds(model) and 97.0 <= shown(model) < 99.0, shown(model)
+    assert status(model) is Status.FULL, 'the charge has ended: FULL, not CHARGING with no current'
+    hold(model, Mode.DISCHARGE, 60.0)
+    hold(model, Mode.CHARGE, until=full)
+    assert shown(model) <= 99.0 and status(model) is Status.CHARGING, 'the hold again'
+    hold(model, Mode.CHARGE, until=lambda m: m.gauge.full)
+    assert shown(model) == 100.0 and status(model) is Status.FULL
+
+
 # -- remaining capacity for the load and the temperature --------------------------------------------
 
 def discharge_from_full(ambient_c, gauge='learning', dt_s=1.0):

@@ -22,7 +22,8 @@ belief, the deadband are kept), and besides:
   current; ModelGauge: between 0.125x and 1.25x, and its own estimate above 95 %) for two
   ``taper_window_s`` (40 s) windows with the cell voltage within ``taper_voltage_fraction`` (2 %) of the
   charge voltage; then 100 % (and FULL). A charger that terminates inside the taper completes the windows
-  at zero current; a charge stopped above the taper current (contact lost early) leaves 99 %.
+  at zero current; a charge stopped above the taper current (contact lost early) leaves 99 %. The end of
+  charge holds (FULL) until a current is counted below 99 %: a rest reading alone does not end it.
 - **Zero holds** (``lock_zero``): once the gauge has shown 0 %, a rest that lets the voltage recover does
   not raise it until a charge (TI's RSOC at Terminate Voltage; MAX17055's empty compensation).
 - **Remaining capacity for the present load and temperature** (TI SLUUCD5 "RemainingCapacity"): the gauge
@@ -160,6 +161,11 @@ class LearningGauge(CoulombCounter):
             if dt_s != self._average_dt:   # steps mostly repeat their length
                 self._average_dt = dt_s
                 self._average_decay = math.exp(-dt_s / self.settings['load_average_s'])
+            if current != 0.0 and self.full \
+                    and self.soc - self.unusable < HOLD_BEFORE_FULL * (1.0 - self.unusable):
+                # counted below the hold: the next 100 % needs an end of charge. A rest reading alone does not
+                # end it (an imbalanced pack on its charger reads a little less than full: FULL, not CHARGING)
+                self.full = False
             if current < 0.0:
                 self.average_load_a = -current + (self.average_load_a + current) * self._average_decay
             else:
@@ -214,8 +220,6 @@ class LearningGauge(CoulombCounter):
             return 0.0
         fraction = (self.soc - self.unusable) / (1.0 - self.unusable)
         fraction = 0.0 if fraction < 0.0 else (1.0 if fraction > 1.0 else fraction)
-        if self.full and fraction < HOLD_BEFORE_FULL:
-            self.full = False           # discharged below the hold: the next 100 % needs an end of charge
         return fraction if self.full else min(fraction, HOLD_BEFORE_FULL)
 
     @property
