@@ -128,6 +128,29 @@ def learned_gauge(**changes):
     return model
 
 
+@pytest.mark.parametrize('belief', [0.10, -0.10])
+def test_a_charge_from_the_cut_off_learns_the_capacity_at_its_end_without_a_rest(belief):
+    """Part 9's "at a valid end of charge after a discharge from below 10 %": the cut-off is a known point (the
+    unusable state of charge at that load and temperature), so a charge straight from it learns at its end.
+    Measured: +0.21 % after the first charge (-0.98 % from -10 %: held to 10 % a step), +0.1 % after the next.
+    Before, only a rest reading below 10 % started it: a robot that never rested empty never learned."""
+    model = make_model(params(gauge={'capacity_error': belief}), 1.0, Mode.IDLE)
+    for _ in range(2):
+        hold(model, Mode.DISCHARGE, until=empty)
+        model.gauge.take_events()
+        hold(model, Mode.CHARGE, until=lambda m: m.gauge.full)
+        learned = [e for e in model.gauge.take_events() if e.kind == CAPACITY_LEARNED]
+        assert len(learned) == 1 and 'end of charge after the cut-off at' in learned[0].reason, learned
+    assert model.gauge.learned and abs(model.gauge.capacity_ah / model.capacity_ah - 1.0) <= 0.01
+
+
+def test_a_charge_from_25_percent_learns_nothing():
+    model = make_model(params(gauge={'capacity_error': 0.1}), 1.0, Mode.IDLE)
+    hold(model, Mode.DISCHARGE, until=lambda m: shown(m) <= 25.0)
+    hold(model, Mode.CHARGE, until=lambda m: m.gauge.full)
+    assert not model.gauge.learned and CAPACITY_LEARNED not in kinds(model)
+
+
 @pytest.mark.parametrize('apart, updates', [(0.30, False), (0.45, True)])
 def test_no_update_from_a_rest_pair_30_percent_apart(apart, updates):
     model = learned_gauge()

@@ -15,7 +15,8 @@ belief, the deadband are kept), and besides:
   two rest readings with at least ``learn_min_passed`` (37 %) of the design capacity passed (the first
   update: ``learn_first_min_passed``, 90 %), both at 10-40 degC, the full capacity becomes passed charge /
   the difference of the two readings' states of charge; also at a valid end of charge after a rest
-  reading below 10 % (``learn_at_end_of_charge``). Each update moves at most ``capacity_update_limit``
+  reading below 10 % or the cut-off (``learn_at_end_of_charge``: where the pack cut off is known, the
+  unusable state of charge at that load and temperature). Each update moves at most ``capacity_update_limit``
   (10 %) of the last value.
 - **End of charge** (TI SLUUCH2 "Charge termination"; MAX17055 "FullDet"): the percentage holds at 99 %
   until the average charge current has stayed below ``taper_current_a`` (1.1 x the charger's termination
@@ -59,7 +60,7 @@ GaugeEvent = namedtuple('GaugeEvent', 'kind old new size reason')
 
 #: a learned capacity comes from rest readings at least this far apart in state of charge
 MIN_READING_SPAN = 0.05
-#: end of charge learning starts from a rest reading below this state of charge
+#: end of charge learning starts from a rest reading (or the cut-off) below this state of charge
 LEARN_AT_END_OF_CHARGE_BELOW = 0.10
 #: the remaining capacity is recomputed when the averaged load moved by this fraction, the temperature by
 #: this many K, or the state of charge by this much, at most every RECOMPUTE_AFTER_S of battery time (at once
@@ -93,6 +94,7 @@ class LearningGauge(CoulombCounter):
                  'taper_current_a', 'taper_current_min_a', 'taper_voltage_v', 'ocv', 'full', 'zero_locked', 'learned',
                  'corrections', 'average_load_a', 'unusable', '_busy_charge_a', '_discharge_ocv', '_resistances',
                  '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_passed_as',
+                 '_charge_start', '_passed_since_start_as',
                  '_unusable_for', '_unusable_loaded', '_since_unusable_s', '_average_dt', '_average_decay', '_watching',
                  '_shown', '_model')
     watches_rests = True
@@ -130,6 +132,9 @@ class LearningGauge(CoulombCounter):
         self._taper_s = 0.0                  # how long the charge has been in the taper (or ended in it)
         self._reading = None                 # (soc, temperature ok) of the last rest reading
         self._passed_as = 0.0                # measured charge since that reading, A*s (pack)
+        self._charge_start = None            # (soc, temperature ok, a rest) the end of charge learns from: the
+        #                                      last rest reading or cut-off (where the pack cuts off is known)
+        self._passed_since_start_as = 0.0    # measured charge since then, A*s (pack)
         self.average_load_a = 0.0            # the discharge current averaged (a rest or a charge: none)
         self.unusable = 0.0
         self._unusable_for = None            # (load, temperature, soc, capacity) the unusable soc is for
@@ -157,6 +162,7 @@ class LearningGauge(CoulombCounter):
                 soc = self.soc + measured / self.capacity_as
                 self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
                 self._passed_as += measured
+                self._passed_since_start_as += measured
                 current = measured / dt_s
             if dt_s != self._average_dt:   # steps mostly repeat their length
                 self._average_dt = dt_s
@@ -250,6 +256,7 @@ class LearningGauge(CoulombCounter):
     def restart(self):
         self._rest_s, self._since_reading_s, self._last_cell_v, self._taper_s = 0.0, None, None, 0.0
         self._reading, self._passed_as = None, 0.0
+        self._charge_start, self._passed_since_start_as = None, 0.0
         self.zero_locked = False
         self.full = self.soc >= 1.0
         self._unusable_for = None
@@ -294,13 +301,13 @@ class LearningGauge(CoulombCounter):
     def _end_of_charge(self):
         old = self.fraction
         temperature_c = self._model.temperature_c if self._model is not None else None
-        reading = self._reading
-        if self.settings['learn_capacity'] and self.settings['learn_at_end_of_charge'] and reading is not None \
-                and reading[0] < LEARN_AT_END_OF_CHARGE_BELOW and reading[1] and self._temperature_ok(temperature_c) \
-                and self._passed_as >= self._min_passed_as():
-            self._learn(self._passed_as / 3600.0 / (1.0 - reading[0]),
-                        'end of charge after a rest reading at %.1f %%' % (100.0 * reading[0]))
-            self._reading = None   # that pair is used
+        start = self._charge_start
+        if self.settings['learn_capacity'] and self.settings['learn_at_end_of_charge'] and start is not None \
+                and start[0] < LEARN_AT_END_OF_CHARGE_BELOW and start[1] and self._temperature_ok(temperature_c) \
+                and self._passed_since_start_as >= self._min_passed_as():
+            self._learn(self._passed_since_start_as / 3600.0 / (1.0 - start[0]), 'end of charge after %s at %.1f %%'
+                        % ('a rest reading' if start[2] else 'the cut-off', 100.0 * start[0]))
+            self._reading = self._charge_start = None   # that pair is used
         self.soc = 1.0
         self.full = True
         self.zero_locked = False
@@ -343,6 +350,7 @@ class LearningGauge(CoulombCounter):
                         % (100.0 * reading[0], 100.0 * soc, abs(self._passed_as) / 3600.0))
         self._reading = (soc, temperature_ok)
         self._passed_as = 0.0
+        self._charge_start, self._passed_since_start_as = (soc, temperature_ok, True), 0.0
         self.soc = soc
         self._unusable_for = None
         self._refresh_unusable(temperature_c)
@@ -372,6 +380,11 @@ class LearningGauge(CoulombCounter):
 
     def _at_cut_off(self):
         old = self.fraction
+        # where the pack cuts off is known (the unusable state of charge at this load and temperature): a start
+        # for the end of charge's learning (a discharge from below 10 %), though not a rest reading of a pair
+        temperature_c = self._model.temperature_c if self._model is not None else None
+        self._charge_start = (self.unusable, self._temperature_ok(temperature_c), False)
+        self._passed_since_start_as = 0.0
         self.soc = min(self.soc, self.unusable)
         self.zero_locked = bool(self.settings['lock_zero'])
         if not self.zero_locked:
