@@ -260,6 +260,19 @@ def test_an_imbalanced_pack_resting_on_its_charger_stays_full_and_recharges_thro
     assert shown(model) == 100.0 and status(model) is Status.FULL
 
 
+def test_a_badly_imbalanced_pack_ends_its_charge_at_its_highest_groups_voltage():
+    """The BMS ends the charge when the highest group reaches the charge voltage (Part 5); with one group 20 %
+    ahead the others sit at 4.04 V then, the mean 4.09 V, below the taper's 98 % of 4.2 V. The gauge watches
+    the highest group as the charger does: its end of charge comes, FULL. Before, it watched the mean and never
+    saw the end: CHARGING for ever on the dock, no current flowing."""
+    from battery_simulator.core.battery_record import gauge_summary, reported_status
+    model = make_model(params(groups=[{'initial_soc_offset': 0.2}, {}, {}]), 0.3, Mode.IDLE)
+    hold(model, Mode.CHARGE, until=full)
+    hold(model, Mode.CHARGE, 300.0)
+    assert model.gauge.full and reported_status(model.status, gauge_summary(model).full) is Status.FULL
+    assert END_OF_CHARGE in kinds(model)
+
+
 # -- remaining capacity for the load and the temperature --------------------------------------------
 
 def discharge_from_full(ambient_c, gauge='learning', dt_s=1.0):

@@ -186,7 +186,7 @@ class LearningGauge(CoulombCounter):
             else:
                 self._watching = True
                 cell_v = model.voltage_v / self.cells_series
-                self._watch_taper(current, cell_v, dt_s)
+                self._watch_taper(current, model, cell_v, dt_s)
                 self._watch_rest(current, cell_v, dt_s, model.temperature_c)
                 self._last_cell_v = cell_v
             self._since_unusable_s += dt_s
@@ -283,9 +283,17 @@ class LearningGauge(CoulombCounter):
 
     # -- the rules --------------------------------------------------------------------------------
 
-    def _watch_taper(self, current, cell_v, dt_s):
-        """Two taper windows in a row near the charge voltage: the end of charge."""
-        if current < 0.0 or cell_v < self.taper_voltage_v or self.full:
+    def _watch_taper(self, current, model, cell_v, dt_s):
+        """Two taper windows in a row near the charge voltage: the end of charge. The voltage is the highest
+        group's, which the BMS holds at the charge voltage (``cell_v``, the mean, in a lumped pack): a pack
+        whose groups differ ends its charge with the others lower."""
+        if current < 0.0 or self.full:
+            self._taper_s = 0.0
+            return
+        groups = getattr(model, 'groups', None)
+        if groups:
+            cell_v = max(group.cell_voltage_v for group in groups)
+        if cell_v < self.taper_voltage_v:
             self._taper_s = 0.0
             return
         if current > 0.0:
