@@ -93,8 +93,8 @@ class LearningGauge(CoulombCounter):
     __slots__ = ('settings', 'params', 'cells_series', 'cells_parallel', 'design_capacity_ah', 'relax_current_a',
                  'taper_current_a', 'taper_current_min_a', 'taper_voltage_v', 'ocv', 'full', 'zero_locked', 'learned',
                  'corrections', 'average_load_a', 'unusable', '_busy_charge_a', '_discharge_ocv', '_resistances',
-                 '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_passed_as',
-                 '_charge_start', '_passed_since_start_as',
+                 '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_counted_as',
+                 '_reading_counted_as', '_charge_start', '_start_counted_as',
                  '_unusable_for', '_unusable_loaded', '_since_unusable_s', '_average_dt', '_average_decay', '_watching',
                  '_shown', '_model')
     watches_rests = True
@@ -131,10 +131,11 @@ class LearningGauge(CoulombCounter):
         self._last_cell_v = None
         self._taper_s = 0.0                  # how long the charge has been in the taper (or ended in it)
         self._reading = None                 # (soc, temperature ok) of the last rest reading
-        self._passed_as = 0.0                # measured charge since that reading, A*s (pack)
+        self._counted_as = 0.0               # the measured charge counted since start, A*s (pack): the charge
+        self._reading_counted_as = 0.0       # passed since the reading is the difference of this and that
         self._charge_start = None            # (soc, temperature ok, a rest) the end of charge learns from: the
         #                                      last rest reading or cut-off (where the pack cuts off is known)
-        self._passed_since_start_as = 0.0    # measured charge since then, A*s (pack)
+        self._start_counted_as = 0.0         # ... and _counted_as then
         self.average_load_a = 0.0            # the discharge current averaged (a rest or a charge: none)
         self.unusable = 0.0
         self._unusable_for = None            # (load, temperature, soc, capacity) the unusable soc is for
@@ -161,23 +162,22 @@ class LearningGauge(CoulombCounter):
             else:
                 soc = self.soc + measured / self.capacity_as
                 self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
-                self._passed_as += measured
-                self._passed_since_start_as += measured
+                self._counted_as += measured
                 current = measured / dt_s
             if dt_s != self._average_dt:   # steps mostly repeat their length
                 self._average_dt = dt_s
                 self._average_decay = math.exp(-dt_s / self.settings['load_average_s'])
-            if current != 0.0 and self.full \
-                    and self.soc - self.unusable < HOLD_BEFORE_FULL * (1.0 - self.unusable):
-                # counted below the hold: the next 100 % needs an end of charge. A rest reading alone does not
-                # end it (an imbalanced pack on its charger reads a little less than full: FULL, not CHARGING)
-                self.full = False
             if current < 0.0:
                 self.average_load_a = -current + (self.average_load_a + current) * self._average_decay
+                if self.full:
+                    self._below_the_hold()
             else:
                 self.average_load_a *= self._average_decay    # no load: the average decays
-                if current > 0.0 and self.zero_locked:
-                    self.zero_locked = False    # a charge releases 0 %
+                if current > 0.0:
+                    if self.zero_locked:
+                        self.zero_locked = False    # a charge releases 0 %
+                    if self.full:
+                        self._below_the_hold()
             if current <= -self.relax_current_a or current >= self._busy_charge_a:
                 # a discharge, or a charge above the taper: no rest, no taper (the cheap way)
                 if self._watching:
@@ -255,8 +255,7 @@ class LearningGauge(CoulombCounter):
 
     def restart(self):
         self._rest_s, self._since_reading_s, self._last_cell_v, self._taper_s = 0.0, None, None, 0.0
-        self._reading, self._passed_as = None, 0.0
-        self._charge_start, self._passed_since_start_as = None, 0.0
+        self._reading = self._charge_start = None
         self.zero_locked = False
         self.full = self.soc >= 1.0
         self._unusable_for = None
@@ -282,6 +281,13 @@ class LearningGauge(CoulombCounter):
         return events
 
     # -- the rules --------------------------------------------------------------------------------
+
+    def _below_the_hold(self):
+        """While a current is counted: below the hold, the end of charge is over (the next 100 % needs another).
+        A rest reading alone does not end it: an imbalanced pack on its charger reads a little less than full
+        through its groups' mean voltage (FULL, not CHARGING with no current)."""
+        if self.soc - self.unusable < HOLD_BEFORE_FULL * (1.0 - self.unusable):
+            self.full = False
 
     def _watch_taper(self, current, model, cell_v, dt_s):
         """Two taper windows in a row near the charge voltage: the end of charge. The voltage is the highest
@@ -312,8 +318,8 @@ class LearningGauge(CoulombCounter):
         start = self._charge_start
         if self.settings['learn_capacity'] and self.settings['learn_at_end_of_charge'] and start is not None \
                 and start[0] < LEARN_AT_END_OF_CHARGE_BELOW and start[1] and self._temperature_ok(temperature_c) \
-                and self._passed_since_start_as >= self._min_passed_as():
-            self._learn(self._passed_since_start_as / 3600.0 / (1.0 - start[0]), 'end of charge after %s at %.1f %%'
+                and self._counted_as - self._start_counted_as >= self._min_passed_as():
+            self._learn((self._counted_as - self._start_counted_as) / 3600.0 / (1.0 - start[0]), 'end of charge after %s at %.1f %%'
                         % ('a rest reading' if start[2] else 'the cut-off', 100.0 * start[0]))
             self._reading = self._charge_start = None   # that pair is used
         self.soc = 1.0
@@ -351,14 +357,15 @@ class LearningGauge(CoulombCounter):
         old = self.fraction
         temperature_ok = self._temperature_ok(temperature_c)
         reading = self._reading
+        passed_as = abs(self._counted_as - self._reading_counted_as)
         if self.settings['learn_capacity'] and reading is not None and reading[1] and temperature_ok \
-                and abs(self._passed_as) >= self._min_passed_as() and abs(soc - reading[0]) >= MIN_READING_SPAN:
-            self._learn(abs(self._passed_as) / 3600.0 / abs(soc - reading[0]),
+                and passed_as >= self._min_passed_as() and abs(soc - reading[0]) >= MIN_READING_SPAN:
+            self._learn(passed_as / 3600.0 / abs(soc - reading[0]),
                         'rest readings at %.1f %% and %.1f %% with %.3f Ah passed'
-                        % (100.0 * reading[0], 100.0 * soc, abs(self._passed_as) / 3600.0))
+                        % (100.0 * reading[0], 100.0 * soc, passed_as / 3600.0))
         self._reading = (soc, temperature_ok)
-        self._passed_as = 0.0
-        self._charge_start, self._passed_since_start_as = (soc, temperature_ok, True), 0.0
+        self._charge_start = (soc, temperature_ok, True)
+        self._reading_counted_as = self._start_counted_as = self._counted_as
         self.soc = soc
         self._unusable_for = None
         self._refresh_unusable(temperature_c)
@@ -392,7 +399,7 @@ class LearningGauge(CoulombCounter):
         # for the end of charge's learning (a discharge from below 10 %), though not a rest reading of a pair
         temperature_c = self._model.temperature_c if self._model is not None else None
         self._charge_start = (self.unusable, self._temperature_ok(temperature_c), False)
-        self._passed_since_start_as = 0.0
+        self._start_counted_as = self._counted_as
         self.soc = min(self.soc, self.unusable)
         self.zero_locked = bool(self.settings['lock_zero'])
         if not self.zero_locked:
