@@ -494,3 +494,14 @@ def test_predicts_charge_time_is_when_the_robot_reads_the_level(start, target):
     predicted = predict(model, [], charge_to_percentage=target).charge_time_s
     elapsed = hold(model, Mode.CHARGE, until=lambda m: shown(m) >= target, dt_s=1.0)
     assert predicted == pytest.approx(elapsed, rel=0.02), (predicted, elapsed)
+
+
+def test_the_taper_bands_rule_takes_the_gauges_own_defaults():
+    """parameter_rules.py cannot import core/gauge.py (it imports parameter_rules): its defaults are written
+    twice, and this keeps them one."""
+    from battery_simulator.core.gauge import LEARNING_DEFAULTS
+    factor = LEARNING_DEFAULTS['taper_current_factor']
+    from_mapping({'preset': PACK, 'gauge': {'model': 'learning', 'taper_current_min_factor': factor * 0.999}})
+    with pytest.raises(ParameterError, match='taper_current_min_factor'):
+        from_mapping({'preset': PACK, 'gauge': {'model': 'learning', 'taper_current_min_factor': factor}})
+    assert LEARNING_DEFAULTS['taper_current_min_factor'] == 0.0   # the rule's default lower bound

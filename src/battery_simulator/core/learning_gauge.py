@@ -131,8 +131,8 @@ class LearningGauge(CoulombCounter):
         self._last_cell_v = None
         self._taper_s = 0.0                  # how long the charge has been in the taper (or ended in it)
         self._reading = None                 # (soc, temperature ok) of the last rest reading
-        self._counted_as = 0.0               # the measured charge counted since start, A*s (pack): the charge
-        self._reading_counted_as = 0.0       # passed since the reading is the difference of this and that
+        self._counted_as = 0.0               # the measured charge counted since start, A*s (pack)
+        self._reading_counted_as = 0.0       # ... at the last rest reading: the charge passed since is the difference
         self._charge_start = None            # (soc, temperature ok, a rest) the end of charge learns from: the
         #                                      last rest reading or cut-off (where the pack cuts off is known)
         self._start_counted_as = 0.0         # ... and _counted_as then
@@ -315,11 +315,11 @@ class LearningGauge(CoulombCounter):
     def _end_of_charge(self):
         old = self.fraction
         temperature_c = self._model.temperature_c if self._model is not None else None
-        start = self._charge_start
+        start, passed_as = self._charge_start, self._counted_as - self._start_counted_as
         if self.settings['learn_capacity'] and self.settings['learn_at_end_of_charge'] and start is not None \
                 and start[0] < LEARN_AT_END_OF_CHARGE_BELOW and start[1] and self._temperature_ok(temperature_c) \
-                and self._counted_as - self._start_counted_as >= self._min_passed_as():
-            self._learn((self._counted_as - self._start_counted_as) / 3600.0 / (1.0 - start[0]), 'end of charge after %s at %.1f %%'
+                and passed_as >= self._min_passed_as():
+            self._learn(passed_as / 3600.0 / (1.0 - start[0]), 'end of charge after %s at %.1f %%'
                         % ('a rest reading' if start[2] else 'the cut-off', 100.0 * start[0]))
             self._reading = self._charge_start = None   # that pair is used
         self.soc = 1.0

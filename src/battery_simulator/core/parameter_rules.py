@@ -273,16 +273,16 @@ def _validate_gauge(params):
 def _validate_taper_band(params, gauge):
     """A learning gauge's end of charge needs a current band: its lower bound (taper_current_min_factor x the
     termination current) below its upper (taper_current_a, or taper_current_factor x the termination current)."""
-    from battery_simulator.core.gauge import LEARNING_DEFAULTS   # core/gauge.py imports this module
     termination_a = params.pack_termination_current_a
-    min_factor = gauge.get('taper_current_min_factor', LEARNING_DEFAULTS['taper_current_min_factor'])
+    # the defaults are core/gauge.py's LEARNING_DEFAULTS' (as learn_temperature_*'s above: it imports this module)
+    min_factor = gauge.get('taper_current_min_factor', 0.0)
     if 'taper_current_a' in gauge:
         if min_factor * termination_a >= gauge['taper_current_a']:
             _fail('gauge.taper_current_min_factor', min_factor, 'below taper_current_a (%g A) / the termination '
                   'current (%g A): the end of charge\'s band would be empty' % (gauge['taper_current_a'],
                                                                                termination_a))
         return
-    factor = gauge.get('taper_current_factor', LEARNING_DEFAULTS['taper_current_factor'])
+    factor = gauge.get('taper_current_factor', 1.1)
     if min_factor >= factor:
         _fail('gauge.taper_current_min_factor', min_factor, 'below taper_current_factor (%g): the end of '
               'charge\'s band would be empty' % factor)
