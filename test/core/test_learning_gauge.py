@@ -403,6 +403,8 @@ def test_modelgauge_ends_the_charge_inside_its_band_above_95_percent():
     ({'model': 'learning', 'lock_zero': 'yes'}, 'gauge.lock_zero'),
     ({'model': 'learning', 'learn_temperature_min_c': 30, 'learn_temperature_max_c': 20},
      'gauge.learn_temperature_max_c'),
+    ({'model': 'learning', 'learn_temperature_min_c': 45}, 'gauge.learn_temperature_min_c = 45 is invalid: must be '
+     'below learn_temperature_max_c (40 degC)'),
     ({'model': 'learning', 'taper_current_min_factor': 2.0}, 'gauge.taper_current_min_factor = 2.0 is invalid: '
      'must be below taper_current_factor (1.1)'),
     ({'model': 'learning', 'taper_current_a': 0.01, 'taper_current_min_factor': 1.0},

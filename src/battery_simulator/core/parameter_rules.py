@@ -254,10 +254,11 @@ def _validate_gauge(params):
                 _fail('gauge.gauge_ocv', gauge['gauge_ocv'], 'a list of %d increasing cell voltages (one per '
                       'ocv_soc point)' % len(params.ocv_soc))
         _validate_taper_band(params, gauge)
-        low = gauge.get('learn_temperature_min_c', 10.0)
-        if gauge.get('learn_temperature_max_c', 40.0) <= low:
-            _fail('gauge.learn_temperature_max_c', gauge.get('learn_temperature_max_c', 40.0),
-                  'above learn_temperature_min_c (%g degC)' % low)
+        low, high = gauge.get('learn_temperature_min_c', 10.0), gauge.get('learn_temperature_max_c', 40.0)
+        if high <= low:
+            if 'learn_temperature_max_c' not in gauge:   # the value given is the one to name
+                _fail('gauge.learn_temperature_min_c', low, 'below learn_temperature_max_c (%g degC)' % high)
+            _fail('gauge.learn_temperature_max_c', high, 'above learn_temperature_min_c (%g degC)' % low)
     for key, low, high in (('current_offset_a', -100.0, 100.0), ('current_gain_error', -0.5, 0.5),
                            ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0),
                            ('deadband_a', 0.0, 100.0)):
