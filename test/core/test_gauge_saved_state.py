@@ -181,3 +181,26 @@ def test_a_saved_gauge_soc_is_taken_from_0_to_1_and_else_the_gauge_starts_at_the
     model = make_model(counter, 0.3, Mode.IDLE)
     model.restore_state(saved)
     assert model.gauge.soc == pytest.approx(resumed, abs=1e-12)
+
+
+def test_a_gauge_correction_at_rest_is_saved_at_once():
+    """A rest reading, a learned capacity or an end of charge moves the gauge while the truth stands still: the
+    save throttle writes at once, so a server killed right after resumes what the robot read (Part 2's "Nothing
+    lost": within 1 %). Before, only the truth's level (or 2 s of wall time) made a save due: a 5-point rest
+    correction was lost by a SIGKILL within those 2 s."""
+    from battery_simulator.core.state_file import SaveThrottle
+    clock = [0.0]
+    throttle = SaveThrottle(clock=lambda: clock[0])
+    model = make_model(params(), 0.5, Mode.IDLE)
+    model.set_state(0.5, gauge_error=5.0)
+    throttle.wrote(model.export_state())
+    hold(model, Mode.IDLE, 1700.0)
+    assert not throttle.due(model.export_state()), 'nothing moved yet'
+    hold(model, Mode.IDLE, 200.0)   # the rest is read: the gauge from 55 % to the truth's 50 %
+    state = model.export_state()
+    assert abs(state['state_of_charge'] - 0.5) < 1e-9 and throttle.due(state)
+    throttle.wrote(state)
+    for key, value in (('gauge_capacity_ah', state['gauge_capacity_ah'] * 0.95), ('gauge_learned', True),
+                       ('gauge_full', True), ('gauge_zero_locked', True)):
+        assert throttle.due(dict(state, **{key: value})), key
+    assert not throttle.due(dict(state, gauge_soc=state['gauge_soc'] + 0.0001)), 'a small move waits'

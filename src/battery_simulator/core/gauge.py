@@ -73,6 +73,9 @@ class CoulombCounter:
     # read without a dictionary, and the gauge's state stays together in memory)
     __slots__ = ('current_offset_a', 'current_gain_error', 'capacity_error', 'deadband_a', 'recalibrate_at_full',
                  'recalibrate_at_empty', 'capacity_as', 'soc')
+    #: whether the gauge looks at the voltage while the pack rests (a learning gauge's rest reading): a rest
+    #: is then stepped as the gauge samples it, not in one exact step (battery_replay)
+    watches_rests = False
 
     def __init__(self, config, true_capacity_ah, true_soc):
         """``true_capacity_ah``: the pack's capacity at start (aged as configured), which the gauge believes

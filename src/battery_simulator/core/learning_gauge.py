@@ -15,14 +15,16 @@ belief, the deadband are kept), and besides:
   two rest readings with at least ``learn_min_passed`` (37 %) of the design capacity passed (the first
   update: ``learn_first_min_passed``, 90 %), both at 10-40 degC, the full capacity becomes passed charge /
   the difference of the two readings' states of charge; also at a valid end of charge after a rest
-  reading below 10 % (``learn_at_end_of_charge``). Each update moves at most ``capacity_update_limit``
+  reading below 10 % or the cut-off (``learn_at_end_of_charge``: where the pack cut off is known, the
+  unusable state of charge at that load and temperature). Each update moves at most ``capacity_update_limit``
   (10 %) of the last value.
 - **End of charge** (TI SLUUCH2 "Charge termination"; MAX17055 "FullDet"): the percentage holds at 99 %
   until the average charge current has stayed below ``taper_current_a`` (1.1 x the charger's termination
   current; ModelGauge: between 0.125x and 1.25x, and its own estimate above 95 %) for two
   ``taper_window_s`` (40 s) windows with the cell voltage within ``taper_voltage_fraction`` (2 %) of the
   charge voltage; then 100 % (and FULL). A charger that terminates inside the taper completes the windows
-  at zero current; a charge stopped above the taper current (contact lost early) leaves 99 %.
+  at zero current; a charge stopped above the taper current (contact lost early) leaves 99 %. The end of
+  charge holds (FULL) until a current is counted below 99 %: a rest reading alone does not end it.
 - **Zero holds** (``lock_zero``): once the gauge has shown 0 %, a rest that lets the voltage recover does
   not raise it until a charge (TI's RSOC at Terminate Voltage; MAX17055's empty compensation).
 - **Remaining capacity for the present load and temperature** (TI SLUUCD5 "RemainingCapacity"): the gauge
@@ -58,7 +60,7 @@ GaugeEvent = namedtuple('GaugeEvent', 'kind old new size reason')
 
 #: a learned capacity comes from rest readings at least this far apart in state of charge
 MIN_READING_SPAN = 0.05
-#: end of charge learning starts from a rest reading below this state of charge
+#: end of charge learning starts from a rest reading (or the cut-off) below this state of charge
 LEARN_AT_END_OF_CHARGE_BELOW = 0.10
 #: the remaining capacity is recomputed when the averaged load moved by this fraction, the temperature by
 #: this many K, or the state of charge by this much, at most every RECOMPUTE_AFTER_S of battery time (at once
@@ -91,9 +93,11 @@ class LearningGauge(CoulombCounter):
     __slots__ = ('settings', 'params', 'cells_series', 'cells_parallel', 'design_capacity_ah', 'relax_current_a',
                  'taper_current_a', 'taper_current_min_a', 'taper_voltage_v', 'ocv', 'full', 'zero_locked', 'learned',
                  'corrections', 'average_load_a', 'unusable', '_busy_charge_a', '_discharge_ocv', '_resistances',
-                 '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_passed_as',
+                 '_events', '_rest_s', '_since_reading_s', '_last_cell_v', '_taper_s', '_reading', '_counted_as',
+                 '_reading_counted_as', '_charge_start', '_start_counted_as',
                  '_unusable_for', '_unusable_loaded', '_since_unusable_s', '_average_dt', '_average_decay', '_watching',
                  '_shown', '_model')
+    watches_rests = True
 
     def __init__(self, config, true_capacity_ah, true_soc, model):
         """``model``: the pack (core/battery_model.py) whose OCV and resistance tables the gauge takes as
@@ -127,7 +131,11 @@ class LearningGauge(CoulombCounter):
         self._last_cell_v = None
         self._taper_s = 0.0                  # how long the charge has been in the taper (or ended in it)
         self._reading = None                 # (soc, temperature ok) of the last rest reading
-        self._passed_as = 0.0                # measured charge since that reading, A*s (pack)
+        self._counted_as = 0.0               # the measured charge counted since start, A*s (pack)
+        self._reading_counted_as = 0.0       # ... at the last rest reading: the charge passed since is the difference
+        self._charge_start = None            # (soc, temperature ok, a rest) the end of charge learns from: the
+        #                                      last rest reading or cut-off (where the pack cuts off is known)
+        self._start_counted_as = 0.0         # ... and _counted_as then
         self.average_load_a = 0.0            # the discharge current averaged (a rest or a charge: none)
         self.unusable = 0.0
         self._unusable_for = None            # (load, temperature, soc, capacity) the unusable soc is for
@@ -154,17 +162,22 @@ class LearningGauge(CoulombCounter):
             else:
                 soc = self.soc + measured / self.capacity_as
                 self.soc = 0.0 if soc < 0.0 else (1.0 if soc > 1.0 else soc)
-                self._passed_as += measured
+                self._counted_as += measured
                 current = measured / dt_s
             if dt_s != self._average_dt:   # steps mostly repeat their length
                 self._average_dt = dt_s
                 self._average_decay = math.exp(-dt_s / self.settings['load_average_s'])
             if current < 0.0:
                 self.average_load_a = -current + (self.average_load_a + current) * self._average_decay
+                if self.full:
+                    self._below_the_hold()
             else:
                 self.average_load_a *= self._average_decay    # no load: the average decays
-                if current > 0.0 and self.zero_locked:
-                    self.zero_locked = False    # a charge releases 0 %
+                if current > 0.0:
+                    if self.zero_locked:
+                        self.zero_locked = False    # a charge releases 0 %
+                    if self.full:
+                        self._below_the_hold()
             if current <= -self.relax_current_a or current >= self._busy_charge_a:
                 # a discharge, or a charge above the taper: no rest, no taper (the cheap way)
                 if self._watching:
@@ -173,7 +186,7 @@ class LearningGauge(CoulombCounter):
             else:
                 self._watching = True
                 cell_v = model.voltage_v / self.cells_series
-                self._watch_taper(current, cell_v, dt_s)
+                self._watch_taper(current, model, cell_v, dt_s)
                 self._watch_rest(current, cell_v, dt_s, model.temperature_c)
                 self._last_cell_v = cell_v
             self._since_unusable_s += dt_s
@@ -213,8 +226,6 @@ class LearningGauge(CoulombCounter):
             return 0.0
         fraction = (self.soc - self.unusable) / (1.0 - self.unusable)
         fraction = 0.0 if fraction < 0.0 else (1.0 if fraction > 1.0 else fraction)
-        if self.full and fraction < HOLD_BEFORE_FULL:
-            self.full = False           # discharged below the hold: the next 100 % needs an end of charge
         return fraction if self.full else min(fraction, HOLD_BEFORE_FULL)
 
     @property
@@ -244,7 +255,7 @@ class LearningGauge(CoulombCounter):
 
     def restart(self):
         self._rest_s, self._since_reading_s, self._last_cell_v, self._taper_s = 0.0, None, None, 0.0
-        self._reading, self._passed_as = None, 0.0
+        self._reading = self._charge_start = None
         self.zero_locked = False
         self.full = self.soc >= 1.0
         self._unusable_for = None
@@ -271,9 +282,24 @@ class LearningGauge(CoulombCounter):
 
     # -- the rules --------------------------------------------------------------------------------
 
-    def _watch_taper(self, current, cell_v, dt_s):
-        """Two taper windows in a row near the charge voltage: the end of charge."""
-        if current < 0.0 or cell_v < self.taper_voltage_v or self.full:
+    def _below_the_hold(self):
+        """While a current is counted: below the hold, the end of charge is over (the next 100 % needs another).
+        A rest reading alone does not end it: an imbalanced pack on its charger reads a little less than full
+        through its groups' mean voltage (FULL, not CHARGING with no current)."""
+        if self.soc - self.unusable < HOLD_BEFORE_FULL * (1.0 - self.unusable):
+            self.full = False
+
+    def _watch_taper(self, current, model, cell_v, dt_s):
+        """Two taper windows in a row near the charge voltage: the end of charge. The voltage is the highest
+        group's, which the BMS holds at the charge voltage (``cell_v``, the mean, in a lumped pack): a pack
+        whose groups differ ends its charge with the others lower."""
+        if current < 0.0 or self.full:
+            self._taper_s = 0.0
+            return
+        groups = getattr(model, 'groups', None)
+        if groups:
+            cell_v = max(group.cell_voltage_v for group in groups)
+        if cell_v < self.taper_voltage_v:
             self._taper_s = 0.0
             return
         if current > 0.0:
@@ -289,13 +315,13 @@ class LearningGauge(CoulombCounter):
     def _end_of_charge(self):
         old = self.fraction
         temperature_c = self._model.temperature_c if self._model is not None else None
-        reading = self._reading
-        if self.settings['learn_capacity'] and self.settings['learn_at_end_of_charge'] and reading is not None \
-                and reading[0] < LEARN_AT_END_OF_CHARGE_BELOW and reading[1] and self._temperature_ok(temperature_c) \
-                and self._passed_as >= self._min_passed_as():
-            self._learn(self._passed_as / 3600.0 / (1.0 - reading[0]),
-                        'end of charge after a rest reading at %.1f %%' % (100.0 * reading[0]))
-            self._reading = None   # that pair is used
+        start, passed_as = self._charge_start, self._counted_as - self._start_counted_as
+        if self.settings['learn_capacity'] and self.settings['learn_at_end_of_charge'] and start is not None \
+                and start[0] < LEARN_AT_END_OF_CHARGE_BELOW and start[1] and self._temperature_ok(temperature_c) \
+                and passed_as >= self._min_passed_as():
+            self._learn(passed_as / 3600.0 / (1.0 - start[0]), 'end of charge after %s at %.1f %%'
+                        % ('a rest reading' if start[2] else 'the cut-off', 100.0 * start[0]))
+            self._reading = self._charge_start = None   # that pair is used
         self.soc = 1.0
         self.full = True
         self.zero_locked = False
@@ -331,13 +357,15 @@ class LearningGauge(CoulombCounter):
         old = self.fraction
         temperature_ok = self._temperature_ok(temperature_c)
         reading = self._reading
+        passed_as = abs(self._counted_as - self._reading_counted_as)
         if self.settings['learn_capacity'] and reading is not None and reading[1] and temperature_ok \
-                and abs(self._passed_as) >= self._min_passed_as() and abs(soc - reading[0]) >= MIN_READING_SPAN:
-            self._learn(abs(self._passed_as) / 3600.0 / abs(soc - reading[0]),
+                and passed_as >= self._min_passed_as() and abs(soc - reading[0]) >= MIN_READING_SPAN:
+            self._learn(passed_as / 3600.0 / abs(soc - reading[0]),
                         'rest readings at %.1f %% and %.1f %% with %.3f Ah passed'
-                        % (100.0 * reading[0], 100.0 * soc, abs(self._passed_as) / 3600.0))
+                        % (100.0 * reading[0], 100.0 * soc, passed_as / 3600.0))
         self._reading = (soc, temperature_ok)
-        self._passed_as = 0.0
+        self._charge_start = (soc, temperature_ok, True)
+        self._reading_counted_as = self._start_counted_as = self._counted_as
         self.soc = soc
         self._unusable_for = None
         self._refresh_unusable(temperature_c)
@@ -367,6 +395,11 @@ class LearningGauge(CoulombCounter):
 
     def _at_cut_off(self):
         old = self.fraction
+        # where the pack cuts off is known (the unusable state of charge at this load and temperature): a start
+        # for the end of charge's learning (a discharge from below 10 %), though not a rest reading of a pair
+        temperature_c = self._model.temperature_c if self._model is not None else None
+        self._charge_start = (self.unusable, self._temperature_ok(temperature_c), False)
+        self._start_counted_as = self._counted_as
         self.soc = min(self.soc, self.unusable)
         self.zero_locked = bool(self.settings['lock_zero'])
         if not self.zero_locked:

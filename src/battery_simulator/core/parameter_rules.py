@@ -253,10 +253,12 @@ def _validate_gauge(params):
             if len(table) != len(params.ocv_soc) or any(b <= a for a, b in zip(table, table[1:])):
                 _fail('gauge.gauge_ocv', gauge['gauge_ocv'], 'a list of %d increasing cell voltages (one per '
                       'ocv_soc point)' % len(params.ocv_soc))
-        low = gauge.get('learn_temperature_min_c', 10.0)
-        if gauge.get('learn_temperature_max_c', 40.0) <= low:
-            _fail('gauge.learn_temperature_max_c', gauge.get('learn_temperature_max_c', 40.0),
-                  'above learn_temperature_min_c (%g degC)' % low)
+        _validate_taper_band(params, gauge)
+        low, high = gauge.get('learn_temperature_min_c', 10.0), gauge.get('learn_temperature_max_c', 40.0)
+        if high <= low:
+            if 'learn_temperature_max_c' not in gauge:   # the value given is the one to name
+                _fail('gauge.learn_temperature_min_c', low, 'below learn_temperature_max_c (%g degC)' % high)
+            _fail('gauge.learn_temperature_max_c', high, 'above learn_temperature_min_c (%g degC)' % low)
     for key, low, high in (('current_offset_a', -100.0, 100.0), ('current_gain_error', -0.5, 0.5),
                            ('capacity_error', -0.5, 0.5), ('initial_error', -100.0, 100.0),
                            ('deadband_a', 0.0, 100.0)):
@@ -267,6 +269,24 @@ def _validate_gauge(params):
             _fail('gauge.%s' % key, gauge[key], 'true or false')
     if gauge['model'] == 'ideal' and set(gauge) != {'model'}:
         _fail('gauge', gauge, 'only {model: ideal} for an ideal gauge (its errors belong to coulomb_counter)')
+
+
+def _validate_taper_band(params, gauge):
+    """A learning gauge's end of charge needs a current band: its lower bound (taper_current_min_factor x the
+    termination current) below its upper (taper_current_a, or taper_current_factor x the termination current)."""
+    termination_a = params.pack_termination_current_a
+    # the defaults are core/gauge.py's LEARNING_DEFAULTS' (as learn_temperature_*'s above: it imports this module)
+    min_factor = gauge.get('taper_current_min_factor', 0.0)
+    if 'taper_current_a' in gauge:
+        if min_factor * termination_a >= gauge['taper_current_a']:
+            _fail('gauge.taper_current_min_factor', min_factor, 'below taper_current_a (%g A) / the termination '
+                  'current (%g A): the end of charge\'s band would be empty' % (gauge['taper_current_a'],
+                                                                               termination_a))
+        return
+    factor = gauge.get('taper_current_factor', 1.1)
+    if min_factor >= factor:
+        _fail('gauge.taper_current_min_factor', min_factor, 'below taper_current_factor (%g): the end of '
+              'charge\'s band would be empty' % factor)
 
 
 def _validate_conventions(params):

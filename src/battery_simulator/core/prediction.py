@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from itertools import repeat
 from typing import NamedTuple
 
+from battery_simulator.core.battery_record import gauge_summary, reported_status
 from battery_simulator.core.battery_states import CutOff, Mode, Status
 from battery_simulator.core.parameter_rules import MAX_SPEED_MPS, MAX_TURN_RADPS, is_number, load_power_error
 
@@ -57,6 +58,9 @@ CV_STEP_S = 5.0
 CV_ONSET_MARGIN_V = 0.02
 #: a charge that has not reached its level after this long never will
 MAX_CHARGE_S = 7 * 86400.0
+#: a gauge that has not seen its own end of charge this long after the charger's never will (a learning
+#: gauge's takes its taper windows: 80 s by default)
+GAUGE_FULL_WAIT_S = 3600.0
 #: the request's arrays, in the order of Predict.srv
 FIELDS = ('duration_s', 'current_a', 'power_w', 'speed_mps', 'turn_radps')
 
@@ -238,6 +242,11 @@ def predict(model, segments, charge_to_percentage=math.nan, observe=None, until_
                       charge_time_s=charge_time_s)
 
 
+def _reads_full(model):
+    """Whether battery_status says FULL: the charger's end, or a learning gauge's own (core/battery_record.py)."""
+    return reported_status(model.status, gauge_summary(model).full) is Status.FULL
+
+
 def _level(model):
     """The percentage a robot reads: the fuel gauge's (the truth with an ideal gauge), as end_percentage."""
     return model.gauge_reading()[0]
@@ -278,6 +287,7 @@ class _Run:
         self.cut_off_at_s = math.nan
         self._others_w = 0.0
         self._observed = observe is not None
+        self._until_full = False   # a charge ends at the charger's Full only (battery_replay --charge)
         self._observe = observe or (lambda time_s, model: None)
         self._observe(0.0, model)
 
@@ -384,25 +394,32 @@ class _Run:
         model.set_extra_load(PLAN_LOAD)
         model.set_mode(Mode.CHARGE)
         start_s = self.time_s
+        full_at_s = math.inf   # when the charger ended the charge
+        self._until_full = math.isinf(target_percentage)
         while self.time_s - start_s < MAX_CHARGE_S:
             model.step(0.0)   # the current held over the next step (the CV taper's end is found here)
             self._seen()
             if self._reached(target_percentage):
-                if model.status is Status.FULL:
+                if _reads_full(model):
                     self._observe(self.time_s, model)   # the moment it turned FULL
                 return self.time_s - start_s
             if model.charger_fault:
                 return math.inf
-            near_cv = model.status is Status.CHARGING and (
+            if model.status is Status.FULL and self.time_s - full_at_s > GAUGE_FULL_WAIT_S:
+                return math.inf   # the charger has ended, the gauge never will: the robot never reads it
+            # the CV taper, and a gauge's own end of charge after the charger's (a learning gauge's windows)
+            near_cv = model.status is Status.FULL or model.status is Status.CHARGING and (
                 model.current_a < 0.999 * params.charge_current_a
                 or model.cell_voltage_v > params.cell_charge_voltage_v - CV_ONSET_MARGIN_V)
             step_s = CV_STEP_S if near_cv else self._charge_step()
             before = _level(model)
             model.step(step_s)
             self._advance(step_s)
+            if model.status is Status.FULL and full_at_s == math.inf:
+                full_at_s = self.time_s
             if self._reached(target_percentage):
                 after = _level(model)
-                if model.status is Status.FULL or after <= before:   # the taper ended within this step
+                if _reads_full(model) or after <= before:   # the taper (or the gauge's) ended within this step
                     return self.time_s - start_s
                 # the current is held over a step: the level rises linearly within it
                 return self.time_s - start_s - step_s * (after - target_percentage) / (after - before)
@@ -416,8 +433,12 @@ class _Run:
         return min(max(step_s, CV_STEP_S), CURRENT_STEP_S)
 
     def _reached(self, target_percentage):
-        """The charge ends at the level the robot reads (the gauge's), or at Full (the charger stops)."""
-        return self.model.status is Status.FULL or _level(self.model) >= target_percentage
+        """The charge ends at the level the robot reads (the gauge's), or at Full as the robot reads it (a
+        learning gauge's own end of charge, a minute after the charger's); until_full: at the charger's."""
+        model = self.model
+        if self._until_full:
+            return model.status is Status.FULL
+        return _reads_full(model) or _level(model) >= target_percentage
 
     def _advance(self, step_s):
         self.time_s += step_s

@@ -12,7 +12,8 @@ row's value is held until the next row's time (a config's
 log that measured voltage and current at the same instant: since the previous
 row's time). The output has one
 row per profile row: the state at that time (time, voltage, current, soc 0..1,
-temperature, status).
+temperature, status). A rest is one exact step, except for a learning gauge, which
+looks at the voltage as it rests: then it is cut into ``--max-step`` pieces as a load is.
 
 ``--charge A`` charges at A amperes (the charger's constant current) from
 ``--soc`` (default 0) until the CV taper ends (Full), through the same
@@ -113,8 +114,8 @@ def replay(params, profile, state_of_charge=1.0, max_step_s=1.0, timing=None):
     for (start_s, kind, value), (end_s, next_kind, next_value) in zip(profile, profile[1:]):
         if since_previous:
             kind, value = next_kind, next_value
-        if value == 0.0:
-            steps = 1   # a rest is exact in one step
+        if value == 0.0 and not (model.gauge is not None and model.gauge.watches_rests):
+            steps = 1   # a rest is exact in one step (a learning gauge samples it: in max_step pieces)
         else:
             steps = min(max(1, int(math.ceil((end_s - start_s) / max_step_s))), MAX_STEPS_PER_SEGMENT)
         dt_s = (end_s - start_s) / steps

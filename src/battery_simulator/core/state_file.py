@@ -7,6 +7,8 @@ import os
 import tempfile
 import time
 
+from battery_simulator.core.gauge import SAVED_KEYS as GAUGE_SAVED_KEYS
+
 #: a save that fails (a full disk) is reported at most this often
 WRITE_ERROR_PERIOD_S = 60.0
 
@@ -153,15 +155,29 @@ class SaveThrottle:
 
     def __init__(self, clock=time.monotonic):
         self._clock = clock
-        self._saved = (None, -math.inf)   # (level %, time) of the last write
+        self._saved = (None, None, -math.inf)   # (level %, the gauge's, time) of the last write
 
     def due(self, state):
-        saved_level, saved_at = self._saved
+        saved_level, saved_gauge, saved_at = self._saved
         return saved_level is None or abs(100.0 * state['state_of_charge'] - saved_level) >= SAVE_EVERY_PERCENT \
-            or self._clock() - saved_at >= SAVE_EVERY_S
+            or _gauge_moved(_gauge_kept(state), saved_gauge) or self._clock() - saved_at >= SAVE_EVERY_S
 
     def wrote(self, state):
-        self._saved = (100.0 * state['state_of_charge'], self._clock())
+        self._saved = (100.0 * state['state_of_charge'], _gauge_kept(state), self._clock())
+
+
+def _gauge_kept(state):
+    """What a gauge keeps in a saved state (core/gauge.py SAVED_KEYS; None where it keeps none): a learning
+    gauge's rest reading, learned capacity, zero lock or end of charge moves it while the truth stands still."""
+    return tuple(state.get(key) for key in GAUGE_SAVED_KEYS)
+
+
+def _gauge_moved(kept, saved):
+    """The gauge's level moved SAVE_EVERY_PERCENT, or another of its kept values changed."""
+    if kept[0] != saved[0] and (kept[0] is None or saved[0] is None
+                                or abs(100.0 * (kept[0] - saved[0])) >= SAVE_EVERY_PERCENT):
+        return True
+    return kept[1:] != saved[1:]
 
 
 class StateFileKeeper:
