@@ -262,9 +262,8 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
 #: action's feedback and status), nothing else: the process's RSS before and after, as JSON
 ENDPOINTS_SCRIPT = """
 import gc, json, os, sys, time
-from battery_simulator.ros2.fleet_dds import use_fleet_profile
-if sys.argv[2] == 'fleet':
-    use_fleet_profile()
+from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
+profile = use_fleet_profile() if sys.argv[2] == 'fleet' else None
 import rclpy
 from rclpy.action import ActionServer
 from battery_simulator.action import BatterySim
@@ -279,6 +278,7 @@ def rss_kb():
         return next(int(line.split()[1]) for line in stream if line.startswith('Rss:'))
 rclpy.init()
 node = rclpy.create_node('endpoints_benchmark')
+forget_profile(profile)   # read when the participant was made
 entities = []
 def robot(name):
     for kind, service in ((SetLoad, 'set_load'), (SetBool, 'set_charging'), (SetState, 'set_state'),
