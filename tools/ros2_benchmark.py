@@ -15,6 +15,10 @@ always has them, ros2/fleet_dds.py).
     tools/ros2.sh python3 tools/ros2_benchmark.py dashboard [N ...]   # battery_dashboard beside a fleet of N (100),
                                                                       # the page open, its CPU in 20 s windows
                                                                       # for DASHBOARD_WATCH_S (300 s; the last counts)
+    tools/ros2.sh python3 tools/ros2_benchmark.py endpoints [N ...]   # what a robot's 27 DDS endpoints cost in one
+                                                                      # rclpy node (no battery, no Python of ours), N
+                                                                      # robots (200), with the fleet host's Fast DDS
+                                                                      # profile beside the profile in force alone
 """
 import http.client
 import json
@@ -253,6 +257,75 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
             listener.process.kill()
 
 
+#: N robots' 27 endpoints in one node, as a fleet host holds them (each robot's names: 6 services and the action's 3,
+#: a reader and a writer each; cmd_vel, charger_contact; battery_status, battery_state, low, critical, the state, the
+#: action's feedback and status), nothing else: the process's RSS before and after, as JSON
+ENDPOINTS_SCRIPT = """
+import gc, json, os, sys, time
+from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
+profile = use_fleet_profile() if sys.argv[2] == 'fleet' else None
+import rclpy
+from rclpy.action import ActionServer
+from battery_simulator.action import BatterySim
+from battery_simulator.msg import BatterySimState
+from battery_simulator.srv import InjectFault, Predict, SetLoad, SetState
+from geometry_msgs.msg import Twist
+from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool, Trigger
+def rss_kb():
+    with open('/proc/self/smaps_rollup') as stream:
+        return next(int(line.split()[1]) for line in stream if line.startswith('Rss:'))
+rclpy.init()
+node = rclpy.create_node('endpoints_benchmark')
+forget_profile(profile)   # read when the participant was made
+entities = []
+def robot(name):
+    for kind, service in ((SetLoad, 'set_load'), (SetBool, 'set_charging'), (SetState, 'set_state'),
+                          (Trigger, 'reset'), (InjectFault, 'inject_fault'), (Predict, 'predict')):
+        entities.append(node.create_service(kind, name + service, lambda request, response: response))
+    entities.append(ActionServer(node, BatterySim, name + 'battery_simulator', execute_callback=lambda goal: None))
+    for kind, topic in ((Twist, 'cmd_vel'), (Bool, 'charger_contact')):
+        entities.append(node.create_subscription(kind, name + topic, lambda msg: None, 10))
+    for kind, topic in ((BatteryState, 'battery_status'), (BatteryState, 'battery_state'), (Bool, 'battery_low'),
+                        (Bool, 'battery_critical'), (BatterySimState, 'battery_sim_state')):
+        entities.append(node.create_publisher(kind, name + topic, 10))
+robot('/warm_up/')   # every type's support loaded before the first figure
+gc.collect()
+before = rss_kb()
+started = time.process_time()
+for k in range(int(sys.argv[1])):
+    robot('/ep%d/' % k)
+created = time.process_time() - started
+gc.collect()
+time.sleep(1.0)
+print(json.dumps({'before_kb': before, 'after_kb': rss_kb(), 'cpu_s': created}))
+sys.stdout.flush()
+os._exit(0)   # the figures are taken; rclpy's teardown of thousands of entities is not measured
+"""
+ENDPOINTS_A_ROBOT = 27
+
+
+def endpoints(rows, n=200):
+    """What a robot's 27 endpoints cost in one node with the fleet host's Fast DDS profile (ros2/fleet_dds.py),
+    beside the same under the profile in force alone, in the same run; and 1000 robots' endpoints so."""
+    figures = {}
+    for profile in ('in force', 'fleet'):
+        out = subprocess.run([sys.executable, '-c', ENDPOINTS_SCRIPT, str(n), profile], capture_output=True,
+                             text=True, timeout=600).stdout
+        figures[profile] = json.loads(out.strip().splitlines()[-1])
+    for profile in ('fleet', 'in force'):
+        figure = figures[profile]
+        robot_kb = (figure['after_kb'] - figure['before_kb']) / n
+        rows.append(('%d robots\' endpoints in one node, %s' % (
+                         n, 'the fleet host\'s profile' if profile == 'fleet' else 'the profile in force alone'),
+                     '%.0f KB a robot, %.1f KB an endpoint; created in %.1f s of CPU' % (
+                         robot_kb, robot_kb / ENDPOINTS_A_ROBOT, figure['cpu_s']),
+                     'so 1000 robots: %.0f MB with the interpreter\'s %.0f MB' % (
+                         (figure['before_kb'] + 1000 * robot_kb) / 1024, figure['before_kb'] / 1024),
+                     '<= 400 MB for the whole host at 1000' if profile == 'fleet' else 'reference'))
+
+
 #: how long the dashboard's CPU is watched with the page open, CPU_WINDOW_S at a time (the last window is the figure)
 DASHBOARD_WATCH_S = float(os.environ.get('DASHBOARD_WATCH_S', '300'))
 #: ROS 1's figure (docs/dashboard.md, tools/graph_benchmark.py): the ROS 2 dashboard's target is 1.5 times it
@@ -378,6 +451,9 @@ def main():
     if 'dashboard' in arguments:
         for n in sizes or [100]:
             dashboard(rows, n)
+    elif 'endpoints' in arguments:
+        for n in sizes or [200]:
+            endpoints(rows, n)
     else:
         one_battery(rows)
         for n in sizes or [100, 250, 500, 1000]:

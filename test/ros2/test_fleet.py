@@ -71,14 +71,24 @@ def test_a_fleet_over_100_keeps_every_robots_names_and_sets_its_mode_by_set_char
         # battery_status first, for every robot; the action, services and inputs follow, then the host says ready
         assert probe.wait_for(last + '/battery_status', BatteryState, timeout_s=90.0) is not None, process.output()
         assert process.wait_for_output('battery_fleet ready', 90.0), process.output()[-2000:]
-        topics = dict(probe.node.get_topic_names_and_types())
-        for name in ('battery_status', 'battery_state', 'battery_low', 'battery_critical', 'cmd_vel',
-                     'charger_contact', 'battery_simulator/_action/status'):
-            assert last + '/' + name in topics, '%s/%s missing' % (last, name)
-        services = dict(probe.node.get_service_names_and_types())
-        for name in ('set_load', 'set_charging', 'set_state', 'reset', 'inject_fault', 'predict',
-                     '_action/send_goal'):
-            assert last + '/battery_simulator/' + name in services, '%s/battery_simulator/%s missing' % (last, name)
+        topic_names = [last + '/' + name for name in ('battery_status', 'battery_state', 'battery_low',
+                                                      'battery_critical', 'cmd_vel', 'charger_contact',
+                                                      'battery_simulator/_action/status')]
+        service_names = [last + '/battery_simulator/' + name for name in (
+            'set_load', 'set_charging', 'set_state', 'reset', 'inject_fault', 'predict', '_action/send_goal')]
+        # the host says ready once its endpoints exist; DDS announces its last ones to this process a moment later
+        deadline = time.monotonic() + 10.0
+        while True:
+            topics = dict(probe.node.get_topic_names_and_types())
+            services = dict(probe.node.get_service_names_and_types())
+            if all(name in topics for name in topic_names) and all(name in services for name in service_names) \
+                    or time.monotonic() > deadline:
+                break
+            time.sleep(0.1)
+        for name in topic_names:
+            assert name in topics, '%s missing' % name
+        for name in service_names:
+            assert name in services, '%s missing' % name
         assert probe.wait_for(last + '/battery_low', Bool, timeout_s=10.0, qos=LATCHED) is not None
         diagnostics = probe.wait_for('/diagnostics', DiagnosticArray, lambda m: any(
             s.name == last.strip('/') + '/battery_state_pub: Battery' for s in m.status), 10.0)

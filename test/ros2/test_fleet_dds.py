@@ -66,3 +66,12 @@ def test_fast_dds_default_file_in_the_working_directory_counts_as_in_force(tmp_p
     assert profile_in_force({}, str(tmp_path)) is None
     (tmp_path / 'DEFAULT_FASTDDS_PROFILES.xml').write_text(USER_PROFILE)
     assert profile_in_force({}, str(tmp_path)) == str(tmp_path / 'DEFAULT_FASTDDS_PROFILES.xml')
+
+
+def test_the_fleet_endpoints_allocate_no_sample_before_their_first():
+    """allocated_samples 0: a robot's endpoints that never carry a sample (its services', cmd_vel, charger_contact:
+    most of its 27) hold no history; measured 545 KB a robot with 1, 525 KB with 0 (bare script, 200 robots)."""
+    root = ElementTree.fromstring(fleet_profile_text(None))
+    for kind in ('data_reader', 'data_writer'):
+        defaults = [e for e in root.iter(NS + kind) if e.get('is_default_profile') == 'true']
+        assert [e.find('.//%sallocated_samples' % NS).text for e in defaults] == ['0'], kind
