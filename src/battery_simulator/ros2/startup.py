@@ -262,6 +262,16 @@ def run(executor, finish, claim=None):
     end_process(EXIT_STARTUP_ERROR if claim is not None and claim.lost is not None else 0, stopped_at + STOP_S)
 
 
+#: what end_process does before os._exit (which runs no atexit handler nor finally block): e.g. removing a file
+#: the process wrote for itself
+_AT_END = []
+
+
+def at_end(action):
+    """Have ``action()`` run when the process ends through end_process (a start-up error included)."""
+    _AT_END.append(action)
+
+
 def end_process(code, by):
     """End the process, its work done (goals ended, state saved): the rcl context shut down in a thread (every
     node, publisher and service destroyed, so that the graph of other processes drops them at once; about 16 ms a
@@ -280,6 +290,9 @@ def end_process(code, by):
     done.wait(max(0.0, by - time.monotonic()))
     with contextlib.suppress(Exception):
         logging.shutdown()
+    for action in _AT_END:
+        with contextlib.suppress(Exception):
+            action()
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
