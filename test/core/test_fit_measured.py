@@ -115,6 +115,23 @@ def test_a_cut_off_pins_soc_0_where_no_full_charge_pins_soc_1():
     assert known_charge([log], [half]).empty_at is None
 
 
+def test_lg_hg2_c20_charge_back_predicted_with_the_fitted_coulombic_efficiency(tmp_path):
+    """LG HG2's C/20 test (Kollmeyer): the cycler counted 2.78 Ah out to 2.8 V and 2.97 Ah back in to the same
+    4.19 V at rest. The fitted part (the discharge, the rest, 4 h of the charge) has a lasting charge beside the
+    discharge and no percentage: the coulombic efficiency is fitted beside the learned curve. Before (0.999
+    kept): the charge held out ran 25-60 mV above the cell, 35.7 mV per cell against the unfitted preset's
+    34.7; the issue asks at least 30 % better than the preset. And the learned curve's SOC 0 sat at 2.909 V, the
+    model's cut-off with it, where the cycler discharged on to 2.80 V: the model stopped 1 % of SOC early."""
+    from battery_simulator.core.config_files import load_yaml
+    path = os.path.join(DATA, 'lg_hg2_549_C20DisCh.csv.gz')
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=1)
+    preset_mv = fit_logs.preset_rmse(path, 'lg_hg2_cell', 1, 1, holdout=0.4)
+    assert figures['held_mv'] <= 0.7 * preset_mv, (figures['held_mv'], preset_mv, figures['report'])
+    assert 'coulombic_efficiency' in figures['report'], figures['report']
+    # the cycler discharged to 2.80 V: the model's cut-off no higher (before: 2.909 V, the model stopped early)
+    assert load_yaml(figures['config']).cell_cutoff_voltage_v <= 2.8 + 1e-3
+
+
 def test_capacity_from_the_percentage_is_not_moved_by_a_stretch_it_disagrees_with():
     """The winter drive B02's first 3 minutes: its current ramps linearly from -19 to -134 A and back in 170 s
     (a gap in the source filled by interpolation: 3.6 Ah drawn while the BMS's percentage moved 1.8 %). A

@@ -306,6 +306,8 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     chemistry_params = chemistry.params
     changes = electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest,
                                  fitted, kept, warnings, level_source)
+    if curve is not None and chemistry_params.chemistry != 'lfp':
+        _table_down_to_the_logs_cut_off(logs, masks, cells_series, curve, changes, fitted)
     changes.update(loads)
     changes.update(fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted, kept))
     changes.update(heat_params['changes'])
@@ -325,6 +327,23 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     except ParameterError as error:
         raise FitError('the fitted values break the model\'s rules (%s): the log cannot be fitted with the %s '
                        'preset; try --chemistry or --cells-series' % (error, chemistry_name)) from None
+
+
+def _table_down_to_the_logs_cut_off(logs, masks, cells_series, curve, changes, fitted):
+    """A learned curve that reaches SOC 0 (the fitted part discharged to empty) starts at the lowest voltage the
+    fitted part went through where that lies below the curve's first point, the cut-off with it: the model's
+    cut-off sits at or above the table's start, and above the log's it disconnected where the cell went on
+    (LG HG2 at C/20: the curve's smoothness put SOC 0 at 2.909 V, the cycler discharged on to 2.80 V; the model
+    stopped 1 % of SOC early and sat 30-110 mV above the cell's rest and the charge after it)."""
+    volts = list(changes['ocv_voltage_v'])
+    lowest = min(float(np.min(log.voltage_v[mask])) for log, mask in zip(logs, masks)) / cells_series
+    if curve['knots'][0] > 1e-4 or changes['ocv_soc'][0] != 0.0 or not lowest < volts[0]:
+        return
+    volts[0] = float('%.5f' % lowest)
+    changes['ocv_voltage_v'] = tuple(volts)
+    changes['cell_cutoff_voltage_v'] = min(changes['cell_cutoff_voltage_v'], volts[0])
+    fitted['cell_cutoff_voltage_v'] = Fitted(volts[0], 'the lowest voltage the fitted part went through, at the '
+                                             'learned curve\'s SOC 0 (the OCV table starts there)')
 
 
 def _current_timing(logs, fitted, warnings):
