@@ -23,7 +23,7 @@ from battery_simulator.core.fit.electrical import (electrical_values, fit_electr
                                                     non_negative_lstsq, parallel_count, steady_current)
 from battery_simulator.core.fit.heat import fit_thermal, model_temperature
 from battery_simulator.core.fit.known import (check_capacity, check_units, cutoff_warning, fit_mask,
-                                               known_charge, log_has_rest, preset_temperature)
+                                               interpolated, known_charge, log_has_rest, preset_temperature)
 from battery_simulator.core.fit.loads_charger import current_limits, fit_charger, fit_loads
 from battery_simulator.core.fit.ocv_curve import learn_curve
 from battery_simulator.core.fit.series import CHEMISTRY_CLEAR, series_count
@@ -56,6 +56,7 @@ class FitResult:
     logs: list                     # the FitLogs
     initial_soc: list              # per log
     fit_masks: list                # per log: the samples fitted (the rest held out)
+    left_out: list = None          # per log: samples of the fitted part left out (a filled gap: no measurement)
 
 
 def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAULT_HOLDOUT, progress=None,
@@ -64,8 +65,17 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     ``alternatives`` ((name, params) of other chemistry presets) the chemistry is found from the logs too."""
     progress = progress or (lambda fraction, text: None)
     warnings = []
-    masks = [fit_mask(log, holdout) for log in logs]
+    splits = [fit_mask(log, holdout) for log in logs]   # the fitted part of each log (the rest held out)
     fitted, kept = {}, {}
+    masks = []   # the samples fitted: the fitted part without a gap of the source filled by interpolation
+    for log, split in zip(logs, splits):
+        filled = split & interpolated(log)
+        if filled.sum() and (split & ~filled).sum() >= 10:
+            warnings.append('%s: %.0f s where the voltage and the current both run straight in time (a gap in the '
+                            'source filled by interpolation: no measurement) left out of the fit' % (
+                                log.name, float(np.sum(np.diff(log.time_s)[filled[1:]]))))
+            split = split & ~filled
+        masks.append(split)
     check_units(logs, masks)
     known = known_charge(logs, masks)
     # -- series count and chemistry
@@ -101,7 +111,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
         levels = [True] if level_off else [False, True]
     results = []
     for level in levels:
-        results.append(_fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_series, level,
+        results.append(_fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, level,
                                      'the rests\' voltages' if rests else 'the voltage at the SOC the logged '
                                      'percentage gives', dict(fitted), dict(kept), list(warnings), progress))
     score, chosen = results[0]
@@ -117,7 +127,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     return chosen
 
 
-def _fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_series, has_rest, level_source,
+def _fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, has_rest, level_source,
                   fitted, kept, warnings, progress):
     """(replayed RMSE of the fitted part, FitResult) at the series count and chemistry found, the OCV's
     offset fitted where ``has_rest``."""
@@ -177,7 +187,7 @@ def _fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_se
                            level_source)
         result = FitResult(params=params, chemistry=chemistry_name, fitted=these_fitted, kept=these_kept,
                            warnings=these_warnings, logs=logs, initial_soc=list(this_electrical.soc0),
-                           fit_masks=masks)
+                           fit_masks=splits, left_out=[split & ~mask for split, mask in zip(splits, masks)])
         built.append((replayed_fit_rmse(result), index, result))
         progress(0.9 + 0.03 * index, 'the OCV curve checked by replay')
         if params.ocv_charge_voltage_v:
