@@ -173,6 +173,21 @@ def test_a_gap_filled_by_interpolation_is_left_out_of_the_fit(tmp_path):
     assert figures['held_mv'] <= 15.0, figures['held_mv']
 
 
+def test_a_rest_does_not_run_across_samples_left_out():
+    """Two standstills of 100 s on either side of a filled gap are no 120 s rest (before: the samples left
+    out were skipped and the two joined into one of 300 s, and an OCV offset was read from it)."""
+    from types import SimpleNamespace
+    from battery_simulator.core.fit.known import log_has_rest
+    t = np.arange(0.0, 400.0, 1.0)
+    i = np.where((t >= 100.0) & (t < 200.0) | (t >= 300.0), -20.0, -0.01)
+    log = SimpleNamespace(time_s=t, current_a=i)
+    kept = ~((t >= 100.0) & (t < 200.0))
+    assert not log_has_rest(log, kept)
+    assert not log_has_rest(log, np.ones(len(t), dtype=bool))   # still 0-99 and 200-299: 99 s each
+    longer = SimpleNamespace(time_s=t, current_a=np.where(t >= 300.0, -20.0, -0.01))
+    assert log_has_rest(longer, np.ones(len(t), dtype=bool))
+
+
 def test_a_stretched_ocv_scale_never_cuts_off_what_the_log_went_through(tmp_path):
     """The winter drive B06: the preset's OCV on a stretched SOC scale (0.497 + 0.375 x) put SOC 0 at 3.738 V
     per cell while the fitted part went down to 3.528 V: the replay's model disconnected (fitted part 56.5 mV

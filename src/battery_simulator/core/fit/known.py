@@ -188,9 +188,9 @@ def fit_mask(log, holdout):
 
 
 def log_has_rest(log, mask):
-    i, t = np.abs(log.current_a[mask]), log.time_s[mask]
-    still = i <= max(REST_A, REST_FRACTION * i.max())
-    # the longest run of still samples
+    i, t = np.abs(log.current_a), log.time_s
+    still = mask & (i <= max(REST_A, REST_FRACTION * float(i[mask].max())))
+    # the longest run of still samples (a sample left out of the fit, such as a filled gap's, ends a run)
     best, start = 0.0, None
     for k in range(len(i)):
         if still[k]:
