@@ -132,6 +132,54 @@ def test_lg_hg2_c20_charge_back_predicted_with_the_fitted_coulombic_efficiency(t
     assert load_yaml(figures['config']).cell_cutoff_voltage_v <= 2.8 + 1e-3
 
 
+def _cycling_log(path, params, cycles=4, dt=10.0, seed=3):
+    """A cycler's log of one cell (no percentage): discharges to the cut-off at 1C and C/2 in turn, each
+    followed by a rest, a CC-CV charge and a rest, the voltage and current with a cycler's noise."""
+    import random
+    from battery_simulator.core.battery_model import BatteryModel
+    from battery_simulator.core.battery_states import Mode
+    model = BatteryModel(params, state_of_charge=1.0, mode=Mode.IDLE)
+    rng, rows, now = random.Random(seed), [], 0.0
+
+    def run(mode, steps, current=None, until=None):
+        nonlocal now
+        model.set_mode(mode)
+        for _ in range(steps):
+            snapshot = model.snapshot()
+            rows.append((now, snapshot.voltage_v + rng.gauss(0, 0.002), snapshot.current_a + rng.gauss(0, 0.005),
+                         snapshot.temperature_c))
+            model.step(dt, current_a=current) if current is not None else model.step(dt)
+            now += dt
+            if until and model.status.name == until:
+                break
+    for cycle in range(cycles):
+        run(Mode.DISCHARGE, 10 ** 6, -params.cell_capacity_ah / (1 + cycle % 2), 'EMPTY')
+        run(Mode.IDLE, 60, 0.0)
+        run(Mode.CHARGE, int(4 * 3600 / dt), None, 'FULL')
+        run(Mode.IDLE, 60, 0.0)
+    np.savetxt(path, np.array(rows), delimiter=',', header='time,voltage,current,temperature', comments='',
+               fmt='%.5f')
+
+
+def test_a_cycling_log_with_a_coulombic_efficiency_below_one_is_fitted(tmp_path):
+    """A cell of another chemistry than the preset's (its OCV LG HG2's plus a 70 mV wave) cycled by a cycler that
+    counts 3 % more charge in than out (coulombic efficiency 0.97; Kollmeyer's HG2 at C/20: 2.97 Ah in after
+    2.78 Ah out), no percentage. Before, the preset's 0.999 was kept: the charges' SOC ran ahead, held out
+    70.8 mV per cell against the unfitted preset's 127.3. Now the efficiency is fitted beside the learned
+    curve: 0.966, held out 25.9."""
+    from battery_simulator.core.config_files import from_mapping, load_yaml
+    params = from_mapping(dict({'preset': 'lg_hg2_cell', 'coulombic_efficiency': 0.97, 'charge_current_a': 1.5,
+                                'cell_capacity_ah': 3.2, 'r0_ohm': 0.03, 'r1_ohm': 0.015, 'tau1_s': 200.0,
+                                'r_fast_ohm': 0.008, 'tau_fast_s': 15.0, 'hysteresis_ah': 0.3},
+                               **fit_logs._tables(fit_logs.MADE_UP_SOC, fit_logs.made_up_ocv)))
+    path = os.path.join(str(tmp_path), 'cycling.csv')
+    _cycling_log(path, params)
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=1)
+    preset_mv = fit_logs.preset_rmse(path, 'lg_hg2_cell', 1, 1, holdout=0.4)
+    assert figures['held_mv'] <= 0.3 * preset_mv, (figures['held_mv'], preset_mv, figures['report'])
+    assert load_yaml(figures['config']).coulombic_efficiency == pytest.approx(0.97, abs=0.01)
+
+
 def test_capacity_from_the_percentage_is_not_moved_by_a_stretch_it_disagrees_with():
     """The winter drive B02's first 3 minutes: its current ramps linearly from -19 to -134 A and back in 170 s
     (a gap in the source filled by interpolation: 3.6 Ah drawn while the BMS's percentage moved 1.8 %). A
