@@ -21,7 +21,9 @@ LEARN_KNOT_SOC, LEARN_MIN_KNOTS, LEARN_MAX_KNOTS = 0.02, 4, 40
 #: the coulombic efficiency (the charge a charge takes per charge a discharge gave back) is fitted beside the
 #: curve where no logged percentage counts the charge and the fitted part both charges and discharges at least
 #: EFFICIENCY_SPAN of the capacity each, for at least CHARGE_MIN_S (LG HG2 at C/20, Kollmeyer: 2.97 Ah charged
-#: back after 2.78 Ah discharged, the same 4.19 V at rest before and after); within these bounds
+#: back after 2.78 Ah discharged, the same 4.19 V at rest before and after); within these bounds. A few hours of
+#: charge place it weakly (that C/20 test's fitted part: its error falls steadily towards the lower bound, where
+#: the search from the preset's value stops is what is written; docs/fit.md); cycles place it (0.97 found 0.966)
 EFFICIENCY_SPAN, EFFICIENCY_BOUNDS = 0.05, (0.85, 1.0)
 
 
