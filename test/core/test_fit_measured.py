@@ -115,6 +115,71 @@ def test_a_cut_off_pins_soc_0_where_no_full_charge_pins_soc_1():
     assert known_charge([log], [half]).empty_at is None
 
 
+def test_lg_hg2_c20_charge_back_predicted_with_the_fitted_coulombic_efficiency(tmp_path):
+    """LG HG2's C/20 test (Kollmeyer): the cycler counted 2.78 Ah out to 2.8 V and 2.97 Ah back in to the same
+    4.19 V at rest. The fitted part (the discharge, the rest, 4 h of the charge) has a lasting charge beside the
+    discharge and no percentage: the coulombic efficiency is fitted beside the learned curve. Before (0.999
+    kept): the charge held out ran 25-60 mV above the cell, 35.7 mV per cell against the unfitted preset's
+    34.7; the issue asks at least 30 % better than the preset. And the learned curve's SOC 0 sat at 2.909 V, the
+    model's cut-off with it, where the cycler discharged on to 2.80 V: the model stopped 1 % of SOC early."""
+    from battery_simulator.core.config_files import load_yaml
+    path = os.path.join(DATA, 'lg_hg2_549_C20DisCh.csv.gz')
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=1)
+    preset_mv = fit_logs.preset_rmse(path, 'lg_hg2_cell', 1, 1, holdout=0.4)
+    assert figures['held_mv'] <= 0.7 * preset_mv, (figures['held_mv'], preset_mv, figures['report'])
+    assert 'coulombic_efficiency' in figures['report'], figures['report']
+    # the cycler discharged to 2.80 V: the model's cut-off no higher (before: 2.909 V, the model stopped early)
+    assert load_yaml(figures['config']).cell_cutoff_voltage_v <= 2.8 + 1e-3
+
+
+def _cycling_log(path, params, cycles=4, dt=10.0, seed=3):
+    """A cycler's log of one cell (no percentage): discharges to the cut-off at 1C and C/2 in turn, each
+    followed by a rest, a CC-CV charge and a rest, the voltage and current with a cycler's noise."""
+    import random
+    from battery_simulator.core.battery_model import BatteryModel
+    from battery_simulator.core.battery_states import Mode
+    model = BatteryModel(params, state_of_charge=1.0, mode=Mode.IDLE)
+    rng, rows, now = random.Random(seed), [], 0.0
+
+    def run(mode, steps, current=None, until=None):
+        nonlocal now
+        model.set_mode(mode)
+        for _ in range(steps):
+            snapshot = model.snapshot()
+            rows.append((now, snapshot.voltage_v + rng.gauss(0, 0.002), snapshot.current_a + rng.gauss(0, 0.005),
+                         snapshot.temperature_c))
+            model.step(dt, current_a=current) if current is not None else model.step(dt)
+            now += dt
+            if until and model.status.name == until:
+                break
+    for cycle in range(cycles):
+        run(Mode.DISCHARGE, 10 ** 6, -params.cell_capacity_ah / (1 + cycle % 2), 'EMPTY')
+        run(Mode.IDLE, 60, 0.0)
+        run(Mode.CHARGE, int(4 * 3600 / dt), None, 'FULL')
+        run(Mode.IDLE, 60, 0.0)
+    np.savetxt(path, np.array(rows), delimiter=',', header='time,voltage,current,temperature', comments='',
+               fmt='%.5f')
+
+
+def test_a_cycling_log_with_a_coulombic_efficiency_below_one_is_fitted(tmp_path):
+    """A cell of another chemistry than the preset's (its OCV LG HG2's plus a 70 mV wave) cycled by a cycler that
+    counts 3 % more charge in than out (coulombic efficiency 0.97; Kollmeyer's HG2 at C/20: 2.97 Ah in after
+    2.78 Ah out), no percentage. Before, the preset's 0.999 was kept: the charges' SOC ran ahead, held out
+    70.8 mV per cell against the unfitted preset's 127.3. Now the efficiency is fitted beside the learned
+    curve: 0.966, held out 25.9."""
+    from battery_simulator.core.config_files import from_mapping, load_yaml
+    params = from_mapping(dict({'preset': 'lg_hg2_cell', 'coulombic_efficiency': 0.97, 'charge_current_a': 1.5,
+                                'cell_capacity_ah': 3.2, 'r0_ohm': 0.03, 'r1_ohm': 0.015, 'tau1_s': 200.0,
+                                'r_fast_ohm': 0.008, 'tau_fast_s': 15.0, 'hysteresis_ah': 0.3},
+                               **fit_logs._tables(fit_logs.MADE_UP_SOC, fit_logs.made_up_ocv)))
+    path = os.path.join(str(tmp_path), 'cycling.csv')
+    _cycling_log(path, params)
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=1)
+    preset_mv = fit_logs.preset_rmse(path, 'lg_hg2_cell', 1, 1, holdout=0.4)
+    assert figures['held_mv'] <= 0.3 * preset_mv, (figures['held_mv'], preset_mv, figures['report'])
+    assert load_yaml(figures['config']).coulombic_efficiency == pytest.approx(0.97, abs=0.01)
+
+
 def test_capacity_from_the_percentage_is_not_moved_by_a_stretch_it_disagrees_with():
     """The winter drive B02's first 3 minutes: its current ramps linearly from -19 to -134 A and back in 170 s
     (a gap in the source filled by interpolation: 3.6 Ah drawn while the BMS's percentage moved 1.8 %). A
@@ -131,6 +196,44 @@ def test_capacity_from_the_percentage_is_not_moved_by_a_stretch_it_disagrees_wit
     early = (log.time_s > 20.0) & (log.time_s < 140.0)
     log.current_a = np.where(early, log.current_a - 100.0, log.current_a)
     assert known_charge([log], masks).capacity_ah == pytest.approx(clean, rel=0.05)
+
+
+def test_a_gap_filled_by_interpolation_is_left_out_of_the_fit(tmp_path):
+    """The i3 source fills gaps by linear interpolation (B02's first minutes: voltage and current straight in
+    time from 386.0 V, -28.8 A to 370.1 V, -139.6 A over 160 s; a measured signal's noise never is). Put into
+    the winter drive B06 (300-600 s, in its fitted part): before, the fit took the filled voltages and the
+    charge counted across them for measurements: 46.3 Ah, held out 36.2 mV per cell (5.0 without the gap);
+    now those samples are left out (said in the report) and the percentage's slope is read within the
+    stretches on either side: 61.2 Ah, 11.0 mV."""
+    data = _columns(I3_WINTER)
+    clean = np.array(data, copy=True)
+    t = data['time']
+    k0, k1 = np.searchsorted(t, 300.0), np.searchsorted(t, 600.0)
+    for column in ('voltage', 'current'):
+        ends = [data[column][k0], data[column][k1]]
+        data[column][k0:k1 + 1] = np.round(np.interp(t[k0:k1 + 1], [t[k0], t[k1]], ends), 2)
+    assert not np.array_equal(clean['voltage'], data['voltage'])
+    path = os.path.join(str(tmp_path), 'b06_filled.csv')
+    np.savetxt(path, data, delimiter=',', header=','.join(data.dtype.names), comments='', fmt='%.6g')
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=96)
+    assert 'a gap in the source filled by interpolation' in figures['report'], figures['report']
+    assert figures['capacity_ah'] == pytest.approx(61.7, rel=0.05), figures['capacity_ah']
+    assert figures['held_mv'] <= 15.0, figures['held_mv']
+
+
+def test_a_rest_does_not_run_across_samples_left_out():
+    """Two standstills of 100 s on either side of a filled gap are no 120 s rest (before: the samples left
+    out were skipped and the two joined into one of 300 s, and an OCV offset was read from it)."""
+    from types import SimpleNamespace
+    from battery_simulator.core.fit.known import log_has_rest
+    t = np.arange(0.0, 400.0, 1.0)
+    i = np.where((t >= 100.0) & (t < 200.0) | (t >= 300.0), -20.0, -0.01)
+    log = SimpleNamespace(time_s=t, current_a=i)
+    kept = ~((t >= 100.0) & (t < 200.0))
+    assert not log_has_rest(log, kept)
+    assert not log_has_rest(log, np.ones(len(t), dtype=bool))   # still 0-99 and 200-299: 99 s each
+    longer = SimpleNamespace(time_s=t, current_a=np.where(t >= 300.0, -20.0, -0.01))
+    assert log_has_rest(longer, np.ones(len(t), dtype=bool))
 
 
 def test_a_stretched_ocv_scale_never_cuts_off_what_the_log_went_through(tmp_path):

@@ -294,6 +294,12 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
                 ', no hysteresis', 1000 * preset_cv, 1000 * curve['rmse_v']))
         warnings.append('the OCV curve is learned over SOC %.2f-%.2f only: outside it the %s shape is a guess, '
                         'and so is the capacity (the SOC scale rests on that shape)' % (knots[0], knots[-1], p.name))
+        if curve.get('coulombic_efficiency') is not None:
+            changes['coulombic_efficiency'] = round(curve['coulombic_efficiency'], 4)
+            fitted['coulombic_efficiency'] = Fitted(
+                changes['coulombic_efficiency'], 'the charges\' voltages beside the discharges\' on the learned curve '
+                '(the charge a charge takes per charge a discharge gives back: the cells\' and the current '
+                'sensor\'s)')
     volts = increasing(volts)
     changes['ocv_soc'] = tuple(float('%.5g' % s) for s in soc)
     changes['ocv_voltage_v'] = tuple(float('%.5f' % v) for v in volts)

@@ -23,7 +23,7 @@ from battery_simulator.core.fit.electrical import (electrical_values, fit_electr
                                                     non_negative_lstsq, parallel_count, steady_current)
 from battery_simulator.core.fit.heat import fit_thermal, model_temperature
 from battery_simulator.core.fit.known import (check_capacity, check_units, cutoff_warning, fit_mask,
-                                               known_charge, log_has_rest, pinned_at_dynamic_cutoff,
+                                               interpolated, known_charge, log_has_rest, pinned_at_dynamic_cutoff,
                                                preset_temperature)
 from battery_simulator.core.fit.loads_charger import current_limits, fit_charger, fit_loads
 from battery_simulator.core.fit.ocv_curve import learn_curve
@@ -57,6 +57,7 @@ class FitResult:
     logs: list                     # the FitLogs
     initial_soc: list              # per log
     fit_masks: list                # per log: the samples fitted (the rest held out)
+    left_out: list = None          # per log: samples of the fitted part left out (a filled gap: no measurement)
 
 
 def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAULT_HOLDOUT, progress=None,
@@ -65,8 +66,17 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     ``alternatives`` ((name, params) of other chemistry presets) the chemistry is found from the logs too."""
     progress = progress or (lambda fraction, text: None)
     warnings = []
-    masks = [fit_mask(log, holdout) for log in logs]
+    splits = [fit_mask(log, holdout) for log in logs]   # the fitted part of each log (the rest held out)
     fitted, kept = {}, {}
+    masks = []   # the samples fitted: the fitted part without a gap of the source filled by interpolation
+    for log, split in zip(logs, splits):
+        filled = split & interpolated(log)
+        if filled.sum() and (split & ~filled).sum() >= 10:
+            warnings.append('%s: %.0f s where the voltage and the current both run straight in time (a gap in the '
+                            'source filled by interpolation: no measurement) left out of the fit' % (
+                                log.name, float(np.sum(np.diff(log.time_s)[filled[1:]]))))
+            split = split & ~filled
+        masks.append(split)
     check_units(logs, masks)
     known = known_charge(logs, masks)
     # -- series count and chemistry
@@ -103,7 +113,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
         levels = [True] if level_off else [False, True]
     results = []
     for level in levels:
-        results.append(_fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_series, level,
+        results.append(_fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, level,
                                      'the rests\' voltages' if rests else 'the voltage at the SOC the logged '
                                      'percentage gives', dict(fitted), dict(kept), list(warnings), progress))
     score, chosen = results[0]
@@ -119,7 +129,7 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     return chosen
 
 
-def _fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_series, has_rest, level_source,
+def _fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, has_rest, level_source,
                   fitted, kept, warnings, progress):
     """(replayed RMSE of the fitted part, FitResult) at the series count and chemistry found, the OCV's
     offset fitted where ``has_rest``."""
@@ -179,7 +189,7 @@ def _fit_at_count(logs, masks, known, chemistry_params, chemistry_name, cells_se
                            level_source)
         result = FitResult(params=params, chemistry=chemistry_name, fitted=these_fitted, kept=these_kept,
                            warnings=these_warnings, logs=logs, initial_soc=list(this_electrical.soc0),
-                           fit_masks=masks)
+                           fit_masks=splits, left_out=[split & ~mask for split, mask in zip(splits, masks)])
         built.append((replayed_fit_rmse(result), index, result))
         progress(0.9 + 0.03 * index, 'the OCV curve checked by replay')
         if params.ocv_charge_voltage_v:
@@ -308,6 +318,8 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     chemistry_params = chemistry.params
     changes = electrical_values(electrical, curve, chemistry, cells_series, cells_parallel, has_rest,
                                  fitted, kept, warnings, level_source)
+    if curve is not None and chemistry_params.chemistry != 'lfp':
+        _table_down_to_the_logs_cut_off(logs, masks, cells_series, curve, changes, fitted)
     changes.update(loads)
     changes.update(fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, changes, fitted, kept))
     changes.update(heat_params['changes'])
@@ -327,6 +339,23 @@ def _assemble(logs, masks, electrical, curve, heat_params, loads, chemistry, che
     except ParameterError as error:
         raise FitError('the fitted values break the model\'s rules (%s): the log cannot be fitted with the %s '
                        'preset; try --chemistry or --cells-series' % (error, chemistry_name)) from None
+
+
+def _table_down_to_the_logs_cut_off(logs, masks, cells_series, curve, changes, fitted):
+    """A learned curve that reaches SOC 0 (the fitted part discharged to empty) starts at the lowest voltage the
+    fitted part went through where that lies below the curve's first point, the cut-off with it: the model's
+    cut-off sits at or above the table's start, and above the log's it disconnected where the cell went on
+    (LG HG2 at C/20: the curve's smoothness put SOC 0 at 2.909 V, the cycler discharged on to 2.80 V; the model
+    stopped 1 % of SOC early and sat 30-110 mV above the cell's rest and the charge after it)."""
+    volts = list(changes['ocv_voltage_v'])
+    lowest = min(float(np.min(log.voltage_v[mask])) for log, mask in zip(logs, masks)) / cells_series
+    if curve['knots'][0] > 1e-4 or changes['ocv_soc'][0] != 0.0 or not lowest < volts[0]:
+        return
+    volts[0] = float('%.5f' % lowest)
+    changes['ocv_voltage_v'] = tuple(volts)
+    changes['cell_cutoff_voltage_v'] = min(changes['cell_cutoff_voltage_v'], volts[0])
+    fitted['cell_cutoff_voltage_v'] = Fitted(volts[0], 'the lowest voltage the fitted part went through, at the '
+                                             'learned curve\'s SOC 0 (the OCV table starts there)')
 
 
 def _current_timing(logs, fitted, warnings):

@@ -7,7 +7,7 @@ import numpy as np
 from battery_simulator.core.fit.circuit import hat_basis, regressors, state_of_charge
 from battery_simulator.core.fit.electrical import (TAU1_BOUNDS, TAU_FAST_BOUNDS, increasing, non_negative_lstsq,
                                                     small_lstsq)
-from battery_simulator.core.fit.known import KNOWN_SPREAD, Known
+from battery_simulator.core.fit.known import CHARGE_MIN_S, KNOWN_SPREAD, Known
 
 #: the OCV curve is learned where the logs cover at least LEARN_MIN_SOC_SPAN of the charge range and the
 #: learned curve predicts each of CV_FOLDS blocks of the fitted part, held out in turn, better than the
@@ -18,6 +18,13 @@ LEARN_MIN_SOC_SPAN, LEARN_GAIN, CV_FOLDS = 0.05, 0.9, 5
 SMOOTHNESS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0)
 #: knots of a learned OCV curve: one per this much SOC, between these counts
 LEARN_KNOT_SOC, LEARN_MIN_KNOTS, LEARN_MAX_KNOTS = 0.02, 4, 40
+#: the coulombic efficiency (the charge a charge takes per charge a discharge gave back) is fitted beside the
+#: curve where no logged percentage counts the charge and the fitted part both charges and discharges at least
+#: EFFICIENCY_SPAN of the capacity each, for at least CHARGE_MIN_S (LG HG2 at C/20, Kollmeyer: 2.97 Ah charged
+#: back after 2.78 Ah discharged, the same 4.19 V at rest before and after); within these bounds. A few hours of
+#: charge place it weakly (that C/20 test's fitted part: its error falls steadily towards the lower bound, where
+#: the search from the preset's value stops is what is written; docs/fit.md); cycles place it (0.97 found 0.966)
+EFFICIENCY_SPAN, EFFICIENCY_BOUNDS = 0.05, (0.85, 1.0)
 
 
 def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known=None):
@@ -68,16 +75,23 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
     arrays = [piece[0] for piece in electrical.pieces]
 
     known = known or Known()
-    counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
-                         * a.dt) / 3600.0 for a in arrays]   # per cell, Ah
+    with_efficiency = known.soc0 is None and p.chemistry != 'lfp' and _charges_and_discharges(
+        arrays, masks, electrical.capacity_ah / electrical.cells_parallel)
+
+    def efficiency(z):
+        return float(z[-1]) if with_efficiency else p.coulombic_efficiency
+
+    def counted(k, z):   # per cell, Ah
+        a = arrays[k]
+        return np.cumsum(np.where(a.cell_current > 0, efficiency(z) * a.cell_current, a.cell_current) * a.dt) / 3600.0
 
     def starts(z):
         cell_capacity = math.exp(z[2]) / electrical.cells_parallel
-        out = list(z[3:])
+        out = list(z[3:3 + len(arrays)])
         for k in range(len(arrays)):
             pin = known.start_pin(k)
             if pin is not None:   # SOC 1 at a full charge's end, or SOC 0 at a cut-off
-                out[k] = min(1.0, max(0.0, (pin[0] == 'full') - counted[k][pin[1]] / cell_capacity))
+                out[k] = min(1.0, max(0.0, (pin[0] == 'full') - counted(k, z)[pin[1]] / cell_capacity))
         return out
 
     def solve(z):
@@ -86,7 +100,7 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
         rows, targets, pieces = [], [], []
         socs = []
         for k, a in enumerate(arrays):
-            soc = state_of_charge(a, cell_capacity, soc0[k], p.coulombic_efficiency)
+            soc = state_of_charge(a, cell_capacity, soc0[k], efficiency(z))
             socs.append(soc[masks[k]])
         grid = np.linspace(min(float(np.min(s)) for s in socs), max(float(np.max(s)) for s in socs), count)
         if grid[-1] - grid[0] < 1e-6:
@@ -94,7 +108,7 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
         grid_shape = np.interp(grid, chemistry.soc_points, chemistry.ocv)
         for k, a in enumerate(arrays):
             m = masks[k]
-            soc = state_of_charge(a, cell_capacity, soc0[k], p.coulombic_efficiency)
+            soc = state_of_charge(a, cell_capacity, soc0[k], efficiency(z))
             x0, x1, xf = regressors(a, soc, scales[k], chemistry, math.exp(z[0]), math.exp(z[1]),
                                     electrical.use_tables)
             pieces.append((a, soc, x0, x1, xf))
@@ -121,6 +135,10 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
         max(0.0, s - 0.02) if known.capacity_ah is not None else 0.0 for s in soc0]
     high_bounds = [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1]), capacity + spread] + [
         min(1.0, s + 0.02) if known.capacity_ah is not None else 1.0 for s in soc0]
+    if with_efficiency:
+        z0.append(min(p.coulombic_efficiency, EFFICIENCY_BOUNDS[1]))
+        low_bounds.append(EFFICIENCY_BOUNDS[0])
+        high_bounds.append(EFFICIENCY_BOUNDS[1])
     z0 = np.clip(z0, np.asarray(low_bounds) + 1e-9, np.asarray(high_bounds) - 1e-9)
     solution = least_squares(residuals, z0, bounds=(low_bounds, high_bounds), x_scale='jac', diff_step=1e-4,
                              max_nfev=60)
@@ -143,7 +161,26 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
             'resistances': dict(zip(names[count:], resistances)),
             'sigmas': {name: sigmas.get(name) for name in names[count:]}, 'gap': gap, 'smoothness': weight,
             'cv': (preset_cv, curve_cv), 'tau1_s': math.exp(solution.x[0]), 'tau_fast_s': math.exp(solution.x[1]),
-            'soc0': [float(v) for v in starts(solution.x)], 'capacity_ah': math.exp(solution.x[2])}
+            'soc0': [float(v) for v in starts(solution.x)], 'capacity_ah': math.exp(solution.x[2]),
+            'coulombic_efficiency': efficiency(solution.x) if with_efficiency else None}
+
+
+def _charges_and_discharges(arrays, masks, cell_capacity_ah):
+    """Whether the fitted parts hold a lasting charge and a lasting discharge, each of at least EFFICIENCY_SPAN
+    of the capacity (the coulombic efficiency is then what the charge's voltage says beside the discharge's)."""
+    found = {1: False, -1: False}
+    for a, mask in zip(arrays, masks):
+        i = a.cell_current
+        threshold = max(0.02 * float(np.max(np.abs(i[mask]))), 1e-9)
+        for sign in (1, -1):
+            flags = mask & (sign * i > threshold)
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
+            for start, stop in zip(edges[::2], edges[1::2]):
+                seconds = float(np.sum(a.dt[start:stop]))
+                charge = abs(float(np.sum(i[start:stop] * a.dt[start:stop]))) / 3600.0
+                if seconds >= CHARGE_MIN_S and charge >= EFFICIENCY_SPAN * cell_capacity_ah:
+                    found[sign] = True
+    return found[1] and found[-1]
 
 
 def _cross_validated(design, target, fold, smooth, smooth_target):

@@ -29,7 +29,7 @@ def replay_profile(log):
 
 def figures(result):
     voltages, fit_errors, held_errors, per_log = [], [], [], []
-    for log, soc, mask in zip(result.logs, result.initial_soc, result.fit_masks):
+    for log, soc, mask, left_out in zip(result.logs, result.initial_soc, result.fit_masks, _left_out(result)):
         # the log's current in the replay's own convention (FitLog.current_a): the same as its logged current
         # replayed with the config's profile_current_timing
         rows = replay(result.params, replay_profile(log), state_of_charge=min(max(soc, 0.0), 1.0),
@@ -37,9 +37,9 @@ def figures(result):
         model = np.array([float(row[1]) for row in rows])
         error = model - log.voltage_v
         voltages.append(model)
-        fit_errors.append(error[mask])
+        fit_errors.append(error[mask & ~left_out])
         held_errors.append(error[~mask])
-        per_log.append((_rmse(error[mask]), _rmse(error[~mask])))
+        per_log.append((_rmse(error[mask & ~left_out]), _rmse(error[~mask])))
     return Figures(voltages, _rmse(np.concatenate(fit_errors)), _rmse(np.concatenate(held_errors)), per_log)
 
 
@@ -47,7 +47,7 @@ def replayed_rmse(result, most_samples):
     """The voltage RMSE (pack V) of the fitted samples of ``result``'s logs replayed with its parameters, each
     log thinned to at most ``most_samples`` (its current the mean over each new interval: the charge kept)."""
     errors = []
-    for log, soc, mask in zip(result.logs, result.initial_soc, result.fit_masks):
+    for log, soc, mask, left_out in zip(result.logs, result.initial_soc, result.fit_masks, _left_out(result)):
         end = int(np.flatnonzero(mask)[-1]) + 1
         step = max(1, end // most_samples)
         t = log.time_s[:end]
@@ -58,8 +58,13 @@ def replayed_rmse(result, most_samples):
         profile = [(float(a), 'current', float(b)) for a, b in zip(times, current)]
         rows = replay(result.params, profile, state_of_charge=min(max(soc, 0.0), 1.0), timing='until_next_row')
         model = np.array([float(row[1]) for row in rows])
-        errors.append(model - log.voltage_v[:end:step])
+        errors.append((model - log.voltage_v[:end:step])[~left_out[:end:step]])
     return _rmse(np.concatenate(errors))
+
+
+def _left_out(result):
+    """Per log: the samples of the fitted part the fit left out (a filled gap of the source), none if not said."""
+    return result.left_out or [np.zeros(len(log.time_s), dtype=bool) for log in result.logs]
 
 
 def _rmse(values):
