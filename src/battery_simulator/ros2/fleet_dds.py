@@ -28,6 +28,8 @@ import os
 import tempfile
 import xml.etree.ElementTree as ElementTree
 
+from battery_simulator.ros2.startup import at_end
+
 PROFILES_VARIABLE = 'FASTDDS_DEFAULT_PROFILES_FILE'
 DEFAULT_PROFILES_NAME = 'DEFAULT_FASTDDS_PROFILES.xml'
 NAMESPACE = 'http://www.eprosima.com'
@@ -120,6 +122,19 @@ def use_fleet_profile(environ=None):
         stream.write(profile)
     environ[PROFILES_VARIABLE] = path
     return path
+
+
+@contextlib.contextmanager
+def fleet_profile():
+    """Around rclpy.init and the host's node (its participant): the fleet profile in force inside, removed after,
+    also when the process ends inside (a bad --ros-args ends it in rclpy.init through end_process, which runs no
+    finally block: the copy was left in the temporary directory)."""
+    path = use_fleet_profile()
+    at_end(lambda: forget_profile(path))
+    try:
+        yield path
+    finally:
+        forget_profile(path)
 
 
 def forget_profile(path):

@@ -47,12 +47,12 @@ from battery_simulator.ros2.action_server import BatterySimServer
 from battery_simulator.ros2.battery_settings import (STARTUP_SETTINGS, TIME_SCALE, check_state_path, declare_live,
                                                      declare_mode, make_battery, read_publisher_settings)
 from battery_simulator.ros2.events_executor import many_entities_executor
-from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
+from battery_simulator.ros2.fleet_dds import fleet_profile
 from battery_simulator.ros2.log import RobotLog
 from battery_simulator.ros2.messages import SimState
 from battery_simulator.ros2.saved_state import NoStore
 from battery_simulator.ros2.battery_claims import BatteryClaim
-from battery_simulator.ros2.startup import (StartupError, at_end, child_namespace, declare_settings, descriptor,
+from battery_simulator.ros2.startup import (StartupError, child_namespace, declare_settings, descriptor,
                                             ending_quietly, exit_on_startup_error, explain_parameter_refusals, init,
                                             own_node, parameter_name, run, steady_clock, was_given)
 from battery_simulator.ros2.state_publisher import BatteryStatePublisher, diagnostics_publisher
@@ -317,13 +317,9 @@ def finish(host):
 
 def main(args=None):
     with ending_quietly():
-        profile = use_fleet_profile()
-        at_end(lambda: forget_profile(profile))   # a bad --ros-args ends the process in init
-        try:
+        with fleet_profile():
             init(args)
             node = Node('battery_fleet')
-        finally:
-            forget_profile(profile)
         explain_parameter_refusals(node)
         executor = many_entities_executor()
         executor.add_node(node)
