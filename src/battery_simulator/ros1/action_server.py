@@ -259,7 +259,9 @@ class BatterySimServer:
             self._set_mode(self._goal.mode, 'goal')
             snapshot = self.battery.snapshot_now()
             self._lines.goal_started(self._goal.mode, snapshot.percentage)
-            if self._server.is_preempt_requested():   # cancelled before it was accepted
+            # cancelled before it was accepted; a preempt with a newer goal waiting is that goal's (it came while
+            # this one was being set up: two CPU hogs, a new goal's preempt read as a cancel), taken next turn
+            if self._server.is_preempt_requested() and not self._server.is_new_goal_available():
                 self._preempt('cancel')
             else:
                 self._check_goal(snapshot)
