@@ -103,17 +103,23 @@ def known_charge(logs, masks):
                  source='a CC-CV charge\'s end (SOC 1)' + (' and a cut-off (SOC 0)' if capacity else ''))
 
 
-def _runs(flags):
+def runs(flags):
+    """(start, stop) of each run of True in ``flags``, ``stop`` past its last sample."""
     edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
     return list(zip(edges[::2], edges[1::2]))
+
+
+def _small_current_a(log, mask):
+    """A current that counts as none in this log: 2 % of its largest in the fitted part, at least 0.02 A."""
+    return max(0.02, 0.02 * float(np.max(np.abs(log.current_a[mask]))))
 
 
 def _full_charge_end(log, mask):
     """The last sample of the last CC-CV charge in the fitted part that tapered at constant voltage."""
     i, v, t = log.current_a, log.voltage_v, log.time_s
-    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    threshold = _small_current_a(log, mask)
     found = None
-    for start, stop in _runs(mask & (i > threshold)):
+    for start, stop in runs(mask & (i > threshold)):
         if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10:
             continue
         peak, top = float(np.max(i[start:stop])), float(np.max(v[start:stop]))
@@ -132,11 +138,11 @@ def _cutoff_end(log, mask, knee=False):
     ``knee``: its voltage falling over its last KNEE_SPAN at least KNEE_RATE times its median rate, as a
     cell's does at empty; a discharge stopped at half charge ends at its lowest voltage too)."""
     i, v, t = log.current_a, log.voltage_v, log.time_s
-    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    threshold = _small_current_a(log, mask)
     lowest = float(np.min(v[mask]))
     last = int(np.flatnonzero(mask)[-1])
     found = None
-    for start, stop in _runs(mask & (i < -threshold)):
+    for start, stop in runs(mask & (i < -threshold)):
         if t[stop - 1] - t[start] < CHARGE_MIN_S or stop - start < 10 or stop > last:
             continue   # (a discharge the fitted part cuts short is no cut-off)
         end = min(stop, len(v) - 1)   # the last discharging sample's current flowed until this one
@@ -151,7 +157,7 @@ def _rest_after(log, mask, end):
     """The voltage at the end of a rest of at least CUTOFF_REST_S that begins at sample ``end`` (a cut-off's)
     within the fitted part, or None."""
     i, t = log.current_a, log.time_s
-    threshold = max(0.02, 0.02 * float(np.max(np.abs(i[mask]))))
+    threshold = _small_current_a(log, mask)
     last = end
     while last + 1 < len(i) and mask[last + 1] and abs(i[last]) <= threshold:
         last += 1   # (sample last's voltage answers the current of the interval before it)
@@ -299,8 +305,8 @@ def interpolated(log):
     for x, q in zip((v, i), steps):   # second differences within two rounding steps
         bend = np.abs(np.diff(np.diff(x) / dt)) * dt[1:]
         straight &= np.concatenate([[False], bend <= 2.0 * q + 1e-9, [False]])
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], straight.astype(int), [0]])))
-    for start, stop in zip(edges[::2] - 1, edges[1::2] + 1):   # a run's end samples lie on its line too
+    for start, stop in runs(straight):
+        start, stop = start - 1, stop + 1   # a run's end samples lie on its line too
         if stop - start < INTERPOLATED_SAMPLES:
             continue
         span = t[start:stop]

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from battery_simulator.core.fit import Fitted
-from battery_simulator.core.fit.known import CHARGE_MIN_S
+from battery_simulator.core.fit.known import CHARGE_MIN_S, runs
 
 #: the datasheet currents are raised to this many times the fitted part's largest
 LIMIT_MARGIN = 2.0
@@ -118,8 +118,7 @@ def fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, cha
 def _lasting(time_s, flags, seconds):
     """``flags`` where they hold for at least ``seconds`` on end."""
     out = np.zeros(len(flags), dtype=bool)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
-    for start, stop in zip(edges[::2], edges[1::2]):
+    for start, stop in runs(flags):
         if time_s[stop - 1] - time_s[start] >= seconds:
             out[start:stop] = True
     return out

@@ -7,7 +7,7 @@ import numpy as np
 from battery_simulator.core.fit.circuit import hat_basis, regressors, state_of_charge
 from battery_simulator.core.fit.electrical import (TAU1_BOUNDS, TAU_FAST_BOUNDS, increasing, non_negative_lstsq,
                                                     small_lstsq)
-from battery_simulator.core.fit.known import CHARGE_MIN_S, KNOWN_SPREAD, Known
+from battery_simulator.core.fit.known import CHARGE_MIN_S, KNOWN_SPREAD, Known, runs
 
 #: the OCV curve is learned where the logs cover at least LEARN_MIN_SOC_SPAN of the charge range and the
 #: learned curve predicts each of CV_FOLDS blocks of the fitted part, held out in turn, better than the
@@ -173,9 +173,7 @@ def _charges_and_discharges(arrays, masks, cell_capacity_ah):
         i = a.cell_current
         threshold = max(0.02 * float(np.max(np.abs(i[mask]))), 1e-9)
         for sign in (1, -1):
-            flags = mask & (sign * i > threshold)
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
-            for start, stop in zip(edges[::2], edges[1::2]):
+            for start, stop in runs(mask & (sign * i > threshold)):
                 seconds = float(np.sum(a.dt[start:stop]))
                 charge = abs(float(np.sum(i[start:stop] * a.dt[start:stop]))) / 3600.0
                 if seconds >= CHARGE_MIN_S and charge >= EFFICIENCY_SPAN * cell_capacity_ah:
