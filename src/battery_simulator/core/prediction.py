@@ -287,7 +287,6 @@ class _Run:
         self.cut_off_at_s = math.nan
         self._others_w = 0.0
         self._observed = observe is not None
-        self._until_full = False   # a charge ends at the charger's Full only (battery_replay --charge)
         self._observe = observe or (lambda time_s, model: None)
         self._observe(0.0, model)
 
@@ -395,7 +394,6 @@ class _Run:
         model.set_mode(Mode.CHARGE)
         start_s = self.time_s
         full_at_s = math.inf   # when the charger ended the charge
-        self._until_full = math.isinf(target_percentage)
         while self.time_s - start_s < MAX_CHARGE_S:
             model.step(0.0)   # the current held over the next step (the CV taper's end is found here)
             self._seen()
@@ -434,9 +432,10 @@ class _Run:
 
     def _reached(self, target_percentage):
         """The charge ends at the level the robot reads (the gauge's), or at Full as the robot reads it (a
-        learning gauge's own end of charge, a minute after the charger's); until_full: at the charger's."""
+        learning gauge's own end of charge, a minute after the charger's); no level (inf, battery_replay
+        --charge's until full): at the charger's."""
         model = self.model
-        if self._until_full:
+        if math.isinf(target_percentage):
             return model.status is Status.FULL
         return _reads_full(model) or _level(model) >= target_percentage
 
