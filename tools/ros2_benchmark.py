@@ -261,9 +261,8 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
 #: a reader and a writer each; cmd_vel, charger_contact; battery_status, battery_state, low, critical, the state, the
 #: action's feedback and status), nothing else: the process's RSS before and after, as JSON
 ENDPOINTS_SCRIPT = """
-import gc, json, os, sys, time
-from battery_simulator.ros2.fleet_dds import forget_profile, use_fleet_profile
-profile = use_fleet_profile() if sys.argv[2] == 'fleet' else None
+import contextlib, gc, json, os, sys, time
+from battery_simulator.ros2.fleet_dds import fleet_profile
 import rclpy
 from rclpy.action import ActionServer
 from battery_simulator.action import BatterySim
@@ -276,9 +275,9 @@ from std_srvs.srv import SetBool, Trigger
 def rss_kb():
     with open('/proc/self/smaps_rollup') as stream:
         return next(int(line.split()[1]) for line in stream if line.startswith('Rss:'))
-rclpy.init()
-node = rclpy.create_node('endpoints_benchmark')
-forget_profile(profile)   # read when the participant was made
+with fleet_profile() if sys.argv[2] == 'fleet' else contextlib.nullcontext():   # read as the participant is made
+    rclpy.init()
+    node = rclpy.create_node('endpoints_benchmark')
 entities = []
 def robot(name):
     for kind, service in ((SetLoad, 'set_load'), (SetBool, 'set_charging'), (SetState, 'set_state'),
