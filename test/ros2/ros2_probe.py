@@ -80,11 +80,14 @@ class Probe:
         self._executor.add_node(self.node)
         self._lock = threading.Lock()
         self._subscriptions = {}
+        self._client_nodes = []   # action_client's
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
 
     def close(self):
         self._executor.shutdown()
+        for node in self._client_nodes:
+            node.destroy_node()
         self.node.destroy_node()
 
     def follow(self, topic, msg_type, qos=RELIABLE):
@@ -128,7 +131,15 @@ class Probe:
         return self.call(SetParameters, node_name + '/set_parameters', request, timeout_s).results[0]
 
     def action_client(self, action_type, name):
-        return ActionClient(self.node, action_type, name)
+        """An action client on a node of its own, handed to the spinning executor once made: rclpy's
+        ActionClient adds itself to its node before it has its lock, and the spinner thread, reaching it in
+        between, died with "'ActionClient' object has no attribute '_lock'" (two CPU hogs: every later call of
+        the probe unanswered)."""
+        node = Node('%s_action_client_%d' % (self.node.get_name(), len(self._client_nodes)))
+        client = ActionClient(node, action_type, name)
+        self._client_nodes.append(node)
+        self._executor.add_node(node)
+        return client
 
     def send_goal(self, client, goal, timeout_s=10.0, feedback=None):
         if not client.wait_for_server(timeout_sec=timeout_s):
