@@ -59,3 +59,22 @@ def test_a_usage_error_exits_2_before_any_ros_import(argv):
 def test_remap_arguments_are_not_goals():
     exit_code, err, _ = run_cli('__name:=client', '2')
     assert exit_code == '2' and "invalid choice: '2'" in err and '__name' not in err
+
+
+def test_a_ctrl_c_whose_exit_a_finaliser_swallowed_still_exits_130_before_any_goal():
+    # the signal lands while a finaliser runs: Python prints "Exception ignored in" and carries on starting; the
+    # client must still end with 130 (a clean-clone CI run with two CPU hogs charged to full and exited 0)
+    code = ('import os, signal, sys\nfrom battery_simulator.cli import client_cli\n'
+            'class Finaliser:\n    def __del__(self):\n        os.kill(os.getpid(), signal.SIGINT)\n'
+            'reading = client_cli.goal_request\n'
+            'def goal_request(argv):\n    request = reading(argv)\n    Finaliser()\n    return request\n'
+            'client_cli.goal_request = goal_request\n'
+            'try:\n    client_cli.main(["1", "--server-timeout", "1"])\nexcept SystemExit as exit:\n'
+            '    print(exit.code)\n')
+    # the built package's messages first (devel's PYTHONPATH), then the sources
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.environ.get('PYTHONPATH', ''), str(SRC)]),
+               ROS_MASTER_URI='http://127.0.0.1:9')   # nothing listens on the discard port: no goal can go
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, env=env, timeout=60)
+    assert result.stdout.split()[-1:] == ['130'], result.stdout + result.stderr   # before: 3, no ROS master
+    assert 'cancelled' in result.stdout
+    assert 'Traceback' not in result.stderr and 'Exception ignored' not in result.stderr, result.stderr

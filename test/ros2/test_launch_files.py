@@ -6,6 +6,7 @@ environment, and must come up: its node on the graph, and the topic it publishes
 import contextlib
 import importlib.util
 import os
+import socket
 import sys
 import tempfile
 import time
@@ -198,8 +199,20 @@ CASES = {
     'sim.launch.py': [{}, {'speed': '60', 'namespace': 'robot1', 'initial_percentage': '80'}],
     'demo.launch.py': [{'speed': '240'}],
     'fleet.launch.py': [{'n': '5', 'hosts': '2', 'speed': '60'}],
-    'dashboard.launch.py': [{'port': '18093'}],
+    'dashboard.launch.py': [{'port': 'free'}],   # a free port of PORTS, found when the test runs
 }
+PORTS = range(18700, 18800)   # this test's dashboards listen here only (rostest dashboard.test has 18093)
+
+
+def free_port():
+    for port in PORTS:
+        with socket.socket() as probe_socket:
+            try:
+                probe_socket.bind(('127.0.0.1', port))
+                return port
+            except OSError:
+                continue
+    raise AssertionError('no free port in %d-%d' % (PORTS[0], PORTS[-1]))
 
 
 def test_every_launch_file_is_exercised():
@@ -230,6 +243,7 @@ def test_the_launch_files_start_the_executables_and_parameters_of_their_ros1_twi
 
 @pytest.mark.parametrize('launch_file, arguments', [(f, a) for f, cases in CASES.items() for a in cases])
 def test_every_node_of_a_launch_file_comes_up(probe, launch_file, arguments):
+    arguments = {name: str(free_port()) if value == 'free' else value for name, value in arguments.items()}
     nodes = nodes_of(LAUNCH / launch_file, arguments)
     assert nodes, '%s starts nothing' % launch_file
     missing = [n.kwargs['executable'] for n in nodes if not installed(n.kwargs['executable'])]

@@ -7,6 +7,8 @@ import signal
 import sys
 from collections import namedtuple
 
+from battery_simulator.cli.interrupt import StopRequest
+
 CHOICES = {'1': True, 'charge': True, '0': False, 'discharge': False}
 ROS_REMAP = ':='   # name:=value arguments are roslaunch's, not ours (as rospy.myargv drops them)
 #: what the runners (ros1/client.py, ros2/client.py) take: plain values, no parser
@@ -45,14 +47,22 @@ def goal_request(argv):
     return GoalRequest(CHOICES[args.goal], args.timeout, args.server_timeout)
 
 
-def _quit_while_starting(signum, frame):
-    sys.exit(130)   # no goal sent yet: nothing to cancel
-
-
 def main(argv=None):
-    signal.signal(signal.SIGINT, _quit_while_starting)
-    signal.signal(signal.SIGTERM, _quit_while_starting)
+    stop = StopRequest()
+
+    def quit_while_starting(signum, frame):
+        # noted first: an exit raised while a finaliser runs is swallowed, and run() then sees the note before it
+        # sends anything
+        stop.handle(signum, frame)
+        sys.exit(130)   # no goal sent yet: nothing to cancel
+
+    def unraisable(report, report_others=sys.unraisablehook):
+        if not (stop.requested and isinstance(report.exc_value, SystemExit)):   # ours: no "Exception ignored" trace
+            report_others(report)
+    sys.unraisablehook = unraisable
+    signal.signal(signal.SIGINT, quit_while_starting)
+    signal.signal(signal.SIGTERM, quit_while_starting)
     argv = sys.argv[1:] if argv is None else argv
     request = goal_request([arg for arg in argv if ROS_REMAP not in arg])
     from battery_simulator.ros1 import client   # rospy's imports after the arguments; it replaces the handlers
-    client.run(request)
+    client.run(request, stop)

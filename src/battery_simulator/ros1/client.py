@@ -102,15 +102,16 @@ def _exit(code, text, stream=sys.stderr):
     sys.exit(code)
 
 
-def run(args):
+def run(args, stop=None):
     """Send the goal of ``args`` (a cli/client_cli.py GoalRequest: charge, timeout, server_timeout) and wait
-    for its end."""
+    for its end. ``stop``: the StopRequest that noted signals while starting (a Ctrl-C then sends nothing)."""
     charge = args.charge
-    stop = StopRequest()
+    stop = stop or StopRequest()
     signal.signal(signal.SIGINT, stop.handle)
     signal.signal(signal.SIGTERM, stop.handle)   # SIGTERM cancels the goal, as Ctrl-C does
     client = None
     try:
+        stop.check()
         if not wait_for_master(args.server_timeout, stop):
             _exit(3, 'battery_sim_client: no ROS master at %s after %g s'
                   % (rosgraph.get_master_uri(), args.server_timeout))
