@@ -76,6 +76,9 @@ def test_off_by_default_and_a_state_without_it_resumes():
     older = BatteryModel(LAGGED, state_of_charge=0.9, mode=Mode.IDLE)
     older.restore_state(model.export_state())   # saved before the lag: it resumes settled
     assert older.surface_soc_lag == 0.0 and older.state_of_charge == model.state_of_charge
+    with pytest.raises(ValueError):
+        again.restore_state(dict(saved, surface_soc_lag=2.0, state_of_charge=0.1))
+    assert again.surface_soc_lag == saved['surface_soc_lag'] and again.state_of_charge != 0.1   # nothing changed
 
 
 def test_cv_ends_at_the_charge_voltage_with_the_lag():

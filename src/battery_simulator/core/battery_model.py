@@ -203,17 +203,17 @@ class BatteryModel:
         optional = {key: saved[key] for key in OPTIONAL_SAVED if key in saved}
         saved = {key: value for key, value in saved.items() if key not in OPTIONAL_SAVED}
         values = dict(SINCE_TWO_RC, **saved)
-        if not all(is_number(v) for v in values.values()) or values['discharged_ah'] < 0 \
+        lag = optional.get('surface_soc_lag', 0.0)   # saved only with surface_soc_lag_s (else settled)
+        if not all(is_number(v) for v in list(values.values()) + [lag]) or values['discharged_ah'] < 0 \
                 or abs(values['rc_voltage_v']) > 1.0 or abs(values['fast_rc_voltage_v']) > 1.0 \
-                or abs(values['hysteresis']) > 1.0:
+                or abs(values['hysteresis']) > 1.0 or abs(lag) > 1.0:
             raise ValueError('saved state %r is invalid: values out of range' % (saved,))
         self.set_state(values['state_of_charge'], values['temperature_c'], values['state_of_health'])
         self.rc_voltage_v = float(values['rc_voltage_v'])
         self.fast_rc_voltage_v = float(values['fast_rc_voltage_v'])
         self.hysteresis = float(values['hysteresis'])
         self.discharged_ah = float(values['discharged_ah'])
-        lag = optional.get('surface_soc_lag', 0.0)
-        self.surface_soc_lag = float(lag) if self._has_surface_lag and is_number(lag) and abs(lag) <= 1.0 else 0.0
+        self.surface_soc_lag = float(lag) if self._has_surface_lag else 0.0
         if self.gauge is not None:
             self.gauge.restore(optional)   # what it kept; the rest as it starts (at the truth)
         self._restore_groups(optional.get('groups'))
