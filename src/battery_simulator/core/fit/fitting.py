@@ -153,6 +153,11 @@ def _with_surface_lag(plain, logs, masks, splits, known, chemistry_params, chemi
     if lagged.params.surface_soc_lag_s and lagged_score < VARIANT_GAIN * score:
         lagged.fitted['surface_soc_lag_s'].source += '; the replay of the fitted part %.1f mV per cell with it, %.1f ' \
             'without' % (1000 * lagged_score / n, 1000 * score / n)
+        if 'cutoff_soc' in lagged.fitted:   # (a Fitted the plain result shares: a new one)
+            pinned = lagged.fitted['cutoff_soc']
+            lagged.fitted['cutoff_soc'] = replace(pinned, source=pinned.source + '; with the surface SOC\'s lag left '
+                                                  'at the rest\'s end (bulk above surface) %.4g Ah'
+                                                  % lagged.params.design_capacity_ah)
         return lagged_score, lagged
     chosen.kept['surface_soc_lag_s'] = 'the replay of the fitted part %.1f mV per cell with a surface SOC\'s lag ' \
         'searched, %.1f without: none' % (1000 * lagged_score / n, 1000 * score / n)
