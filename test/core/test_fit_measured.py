@@ -38,6 +38,7 @@ def test_bmw_i3_drive_96_cells_bms_capacity_and_temperature(tmp_path):
         figures['capacity_ah'], bms_capacity)
     assert figures['temperature_k'] <= 5.0, 'the model\'s temperature %.1f K from the logged' % figures['temperature_k']
     assert figures['held_mv'] <= 15.0, 'held out %.1f mV per cell (at most 15)' % figures['held_mv']
+    assert 'surface_soc_lag_s' not in open(figures['config']).read()   # an LFP cell's near-empty lag only
 
 
 def test_usual_pack_layout_only_where_the_ocv_level_cannot_tell():
@@ -257,6 +258,9 @@ def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
     assert figures['capacity_ah'] == pytest.approx(measured_capacity, rel=0.05), \
         'capacity %.3f Ah, measured %.3f Ah' % (figures['capacity_ah'], measured_capacity)
     assert 'cutoff_soc' in figures['report'], figures['report']   # the 1C cut-off is not the table's SOC 0
+    config = open(figures['config']).read()
+    assert 'surface_soc_lag_s: ' in config and 'tau_surface_s: ' in config, config   # the 1C cut-off and its rest
+    assert figures['fitted_mv'] <= LFP_FITTED_MV, 'fitted part %.1f mV per cell' % figures['fitted_mv']
     assert figures['held_mv'] <= LFP_HELD_MV, 'held out %.1f mV per cell' % figures['held_mv']
     us06, fuds = figures['predicted_mv']   # each replayed whole from the SOC its first voltage gives
     assert us06 <= LFP_US06_MV and fuds <= LFP_FUDS_MV, 'predicted US06 %.1f, FUDS %.1f mV per cell' % (us06, fuds)
@@ -271,8 +275,10 @@ def test_a123_lfp_cell_detected_with_its_capacity(tmp_path):
 #: 1C cut-off pinned at the SOC of the voltage its rest relaxed to: 1.063 Ah from full to the table's SOC 0);
 #: 21.4, US06 16.2, FUDS 54.2 since the LFP charge branch near full is what the CC-CV taper holds (0.117-0.150 V
 #: above the discharge branch at 95-99 % SOC, before 0.025-0.01 V: the fitted part 35.4 -> 21.1)
-LFP_HELD_MV = 24.0
-LFP_US06_MV, LFP_FUDS_MV = 19.0, 58.0
+#: 10.5, US06 15.5, FUDS 34.9 (the fitted part 15.7) since the OCV is read at a surface SOC lagging the counted one
+#: (surface_soc_lag_s 101 s, tau_surface_s 301 s: the 1C cut-off comes 1-2 % of the charge before FUDS's)
+LFP_FITTED_MV, LFP_HELD_MV = 18.0, 13.0
+LFP_US06_MV, LFP_FUDS_MV = 18.0, 38.0
 
 
 @pytest.mark.parametrize('fitted, held_mv, predicted_mv', [
@@ -289,6 +295,8 @@ def test_a123_one_cycle_fitted_the_other_two_predicted(fitted, held_mv, predicte
     others = list(predicted_mv)
     figures = fit_logs.fit_and_score(fitted, str(tmp_path), cells=1, predict=others)
     assert 'chemistry                      lfp' in figures['report'], figures['report']
+    # no cut-off in the fitted 60 %: a surface SOC's lag cannot be told there (set by hand it made these worse)
+    assert 'surface_soc_lag_s' not in open(figures['config']).read()
     assert figures['held_mv'] <= held_mv, 'held out %.1f mV per cell' % figures['held_mv']
     for other, value in zip(others, figures['predicted_mv']):
         assert value <= predicted_mv[other], '%s predicted %.1f mV per cell' % (os.path.basename(other), value)

@@ -181,7 +181,8 @@ def test_from_mapping_messages_name_the_origin():
         from_mapping({'zzz': 1}, origin='robot.yaml')
     assert str(error.value) == 'robot.yaml: unknown parameter zzz (known: %s)' % ', '.join(PARAMETER_NAMES)
     assert str(error.value).endswith('(known: name, cells_series, cells_parallel, cell_capacity_ah, ocv_soc, '
-                                     'ocv_voltage_v, r0_ohm, r1_ohm, tau1_s, r_fast_ohm, tau_fast_s, resistance_soc, '
+                                     'ocv_voltage_v, r0_ohm, r1_ohm, tau1_s, r_fast_ohm, tau_fast_s, surface_soc_lag_s, tau_surface_s, '
+                                     'resistance_soc, '
                                      'r0_soc_factor, r1_soc_factor, r_fast_soc_factor, r0_charge_factor, '
                                      'r1_charge_factor, r_fast_charge_factor, ocv_charge_voltage_v, hysteresis_ah, '
                                      'coulombic_efficiency, '

@@ -43,7 +43,7 @@ PROTECTION_HYSTERESIS_K = 5.0
 #: with the values a state saved before them resumes with
 SINCE_TWO_RC = {'fast_rc_voltage_v': 0.0, 'hysteresis': -1.0}
 #: saved-state keys only some packs have: the gauge's (core/gauge.py), the groups' own states
-OPTIONAL_SAVED = GAUGE_SAVED_KEYS + ('groups',)
+OPTIONAL_SAVED = GAUGE_SAVED_KEYS + ('groups', 'surface_soc_lag')
 
 
 #: the pack's usable capacity never falls below this fraction of its design capacity (ageing and
@@ -76,6 +76,7 @@ class BatteryModel:
         self._hysteresis_per_as = 1.0 / (3600.0 * params.hysteresis_ah)
         self._resistances = ResistanceTable(params)
         self._has_fast_pair = params.r_fast_ohm > 0.0
+        self._has_surface_lag = params.surface_soc_lag_s > 0.0
         self._step_decays = (None, None)   # (dt_s, its exponentials): steps mostly repeat their length
         self._scale_at = (None, 1.0)       # (temperature, the Arrhenius factor there)
         self._hysteresis_for = (None, None)  # (current, h after this step at it), from the charger
@@ -85,6 +86,7 @@ class BatteryModel:
         self.rc_voltage_v = 0.0       # voltage across the (slow) RC pair, per cell
         self.fast_rc_voltage_v = 0.0  # voltage across the fast RC pair, per cell
         self.hysteresis = -1.0        # -1 on the discharge branch of the OCV, +1 on the charge branch
+        self.surface_soc_lag = 0.0    # bulk less surface SOC (surface_soc_lag_s; > 0 while discharging)
         self.cell_current_a = 0.0     # the current held over the last step
         self.temperature_c = self.initial_temperature_c
         self.discharged_ah = 0.0      # per cell, since start (for the cycle count)
@@ -160,6 +162,7 @@ class BatteryModel:
             self.state_of_charge = float(state_of_charge)
             self.rc_voltage_v = 0.0
             self.fast_rc_voltage_v = 0.0
+            self.surface_soc_lag = 0.0
         if temperature_c is not None:
             self.temperature_c = float(temperature_c)
         if state_of_health is not None:
@@ -181,6 +184,8 @@ class BatteryModel:
                  'fast_rc_voltage_v': self.fast_rc_voltage_v, 'hysteresis': self.hysteresis,
                  'temperature_c': self.temperature_c, 'discharged_ah': self.discharged_ah,
                  'state_of_health': self.state_of_health}
+        if self._has_surface_lag:
+            state['surface_soc_lag'] = self.surface_soc_lag
         if self.gauge is not None:
             self.gauge.save(state)
         return state
@@ -198,15 +203,17 @@ class BatteryModel:
         optional = {key: saved[key] for key in OPTIONAL_SAVED if key in saved}
         saved = {key: value for key, value in saved.items() if key not in OPTIONAL_SAVED}
         values = dict(SINCE_TWO_RC, **saved)
-        if not all(is_number(v) for v in values.values()) or values['discharged_ah'] < 0 \
+        lag = optional.get('surface_soc_lag', 0.0)   # saved only with surface_soc_lag_s (else settled)
+        if not all(is_number(v) for v in list(values.values()) + [lag]) or values['discharged_ah'] < 0 \
                 or abs(values['rc_voltage_v']) > 1.0 or abs(values['fast_rc_voltage_v']) > 1.0 \
-                or abs(values['hysteresis']) > 1.0:
+                or abs(values['hysteresis']) > 1.0 or abs(lag) > 1.0:
             raise ValueError('saved state %r is invalid: values out of range' % (saved,))
         self.set_state(values['state_of_charge'], values['temperature_c'], values['state_of_health'])
         self.rc_voltage_v = float(values['rc_voltage_v'])
         self.fast_rc_voltage_v = float(values['fast_rc_voltage_v'])
         self.hysteresis = float(values['hysteresis'])
         self.discharged_ah = float(values['discharged_ah'])
+        self.surface_soc_lag = float(lag) if self._has_surface_lag else 0.0
         if self.gauge is not None:
             self.gauge.restore(optional)   # what it kept; the rest as it starts (at the truth)
         self._restore_groups(optional.get('groups'))
@@ -259,12 +266,12 @@ class BatteryModel:
     def _state(self):
         return (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
                 self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as,
-                self.throughput_as)
+                self.throughput_as, self.surface_soc_lag)
 
     def _restore(self, state):
         (self.state_of_charge, self.rc_voltage_v, self.fast_rc_voltage_v, self.hysteresis,
          self.temperature_c, self.discharged_ah, self.state_of_health, self.status, self._capacity_as,
-         self.throughput_as) = state
+         self.throughput_as, self.surface_soc_lag) = state
 
     def _trip(self):
         """The CutOff the pack protection would act on now, or None."""
@@ -313,9 +320,10 @@ class BatteryModel:
             fractions = (1.0, _memory_fraction(dt_s, p.tau1_s, decay),
                          _memory_fraction(dt_s, p.tau_fast_s, fast_decay) if self._has_fast_pair else 0.5)
             decays = (decay, fast_decay,
-                      math.exp(-dt_s * p.cell_heat_transfer_w_per_k / p.cell_heat_capacity_j_per_k), fractions)
+                      math.exp(-dt_s * p.cell_heat_transfer_w_per_k / p.cell_heat_capacity_j_per_k), fractions,
+                      math.exp(-dt_s / p.tau_surface_s) if self._has_surface_lag else 1.0)
             self._step_decays = (dt_s, decays)
-        decay, fast_decay, thermal_decay, fractions = decays
+        decay, fast_decay, thermal_decay, fractions, surface_decay = decays
         by_soc = self._resistances.soc_points is not None
         if not by_soc:
             r0, r1, r_fast = self._resistances.at(self.state_of_charge, cell_demand > 0.0)
@@ -337,7 +345,8 @@ class BatteryModel:
             fast_gain = 0.0
 
         if cell_demand > 0.0:
-            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0)
+            current = self._charge_current(cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0,
+                                           surface_decay)
             if limit_a is not None and current > limit_a:
                 current = limit_a
         elif cell_demand < 0.0:
@@ -353,6 +362,10 @@ class BatteryModel:
         self.rc_voltage_v = decay * v1_start + rc_gain * current
         fast_start = self.fast_rc_voltage_v
         self.fast_rc_voltage_v = fast_decay * fast_start + fast_gain * current
+        if self._has_surface_lag:
+            # the lag settles at lag_s seconds of the current's SOC change (exact for the step's current)
+            settled = -p.surface_soc_lag_s * current / self._capacity_as
+            self.surface_soc_lag = settled + (self.surface_soc_lag - settled) * surface_decay
         if self._ocv_gap is not None and current != 0.0 and self.hysteresis != (1.0 if current > 0.0 else -1.0):
             for_current, hysteresis = self._hysteresis_for
             self.hysteresis = hysteresis if for_current == current else self._hysteresis_after(current, dt_s)
@@ -417,7 +430,7 @@ class BatteryModel:
         cell_load = (emf + r0 * cell_current - math.sqrt(discriminant)) / (2.0 * r0)
         return -cell_load * p.cells_parallel
 
-    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0):
+    def _charge_current(self, cell_demand, dt_s, decay, rc_gain, fast_decay, fast_gain, r0, surface_decay=1.0):
         """CC up to the charge voltage, then CV with the current tapering."""
         if self.status is Status.FULL or self.charger_fault or self.cut_off is not None:
             self.status = self.status if self.status is Status.FULL else Status.NOT_CHARGING
@@ -428,23 +441,29 @@ class BatteryModel:
             return 0.0
         soc = self.state_of_charge
         soc_gain = p.coulombic_efficiency * dt_s / self._capacity_as
+        # The surface SOC the OCV is read at (the bulk one without surface_soc_lag_s): at the step's end
+        # surface_at + surface_gain * current
+        surface_at, surface_gain = soc, soc_gain
+        if self._has_surface_lag:
+            surface_at = soc - self.surface_soc_lag * surface_decay
+            surface_gain = soc_gain + p.surface_soc_lag_s * (1.0 - surface_decay) / self._capacity_as
         # The current that ends the step exactly at the charge voltage
         # (implicit in SOC, so large steps stay stable).
-        headroom = (p.cell_charge_voltage_v - self.ocv.voltage(soc) - decay * self.rc_voltage_v
+        headroom = (p.cell_charge_voltage_v - self.ocv.voltage(surface_at) - decay * self.rc_voltage_v
                     - fast_decay * self.fast_rc_voltage_v)
         resistance = r0 + rc_gain + fast_gain
         if self._ocv_gap is None:
-            cv_current = headroom / (resistance + self.ocv.slope(soc) * soc_gain)
+            cv_current = headroom / (resistance + self.ocv.slope(surface_at) * surface_gain)
         else:
             # The OCV also rises by h's move towards the charge branch: take h at
             # the end of the step for the CC current, then (if CV) for the CV current.
-            slope, gap, gap_slope = self._ocv_gap.slopes_beside(self.ocv, soc)
+            slope, gap, gap_slope = self._ocv_gap.slopes_beside(self.ocv, surface_at)
             current = cell_demand
             for _ in range(2 if self.hysteresis != 1.0 else 1):
                 hysteresis = self._hysteresis_after(current, dt_s) if current > 0.0 else self.hysteresis
                 self._hysteresis_for = (current, hysteresis)   # _advance's h if this current flows
                 weight = 0.5 * (1.0 + hysteresis)
-                cv_current = (headroom - weight * gap) / (resistance + (slope + weight * gap_slope) * soc_gain)
+                cv_current = (headroom - weight * gap) / (resistance + (slope + weight * gap_slope) * surface_gain)
                 if cv_current >= cell_demand:
                     break
                 current = cv_current
@@ -557,9 +576,15 @@ class BatteryModel:
     @property
     def open_circuit_voltage_v(self):
         """OCV of one cell now, V: on the discharge branch, the charge branch or between (hysteresis)."""
+        soc = self.surface_soc
         if self._ocv_gap is None:
-            return self.ocv.voltage(self.state_of_charge)
-        return self._ocv_gap.voltage_beside(self.ocv, self.state_of_charge, 0.5 * (1.0 + self.hysteresis))
+            return self.ocv.voltage(soc)
+        return self._ocv_gap.voltage_beside(self.ocv, soc, 0.5 * (1.0 + self.hysteresis))
+
+    @property
+    def surface_soc(self):
+        """The state of charge the OCV is read at: the bulk one less the surface lag (surface_soc_lag_s)."""
+        return self.state_of_charge - self.surface_soc_lag if self._has_surface_lag else self.state_of_charge
 
     @property
     def cell_voltage_v(self):

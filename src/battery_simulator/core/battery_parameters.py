@@ -35,6 +35,12 @@ class BatteryParameters:
     r_fast_ohm: float = 0.0
     #: the fast RC pair's time constant, s
     tau_fast_s: float = 20.0
+    #: the OCV is read at a surface state of charge that trails the bulk (counted) one under current
+    #: (solid diffusion): settled, by this many seconds of the current, SOC = bulk - lag_s * I_discharge / Q
+    #: (0 = none: the OCV at the bulk SOC)
+    surface_soc_lag_s: float = 0.0
+    #: the time constant with which the surface SOC's lag follows the current, s
+    tau_surface_s: float = 300.0
     #: SOC grid (0..1, strictly increasing) of the resistance factor tables; empty: no SOC dependence
     resistance_soc: tuple = ()
     #: r0_ohm is multiplied by these factors at the ``resistance_soc`` points (linear between); empty = 1

@@ -66,6 +66,8 @@ _RULES = (
     ('tau1_s', _positive, 'a number > 0'),
     ('r_fast_ohm', _non_negative, 'a number >= 0'),
     ('tau_fast_s', _positive, 'a number > 0'),
+    ('surface_soc_lag_s', _non_negative, 'a number >= 0'),
+    ('tau_surface_s', _positive, 'a number > 0'),
     ('r0_charge_factor', _positive, 'a number > 0'),
     ('r1_charge_factor', _positive, 'a number > 0'),
     ('r_fast_charge_factor', _positive, 'a number > 0'),

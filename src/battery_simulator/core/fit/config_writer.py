@@ -11,7 +11,8 @@ from battery_simulator.core.parameter_rules import ParameterError
 
 #: the keys written, in this order (the ones the fit sets)
 ORDER = ('name', 'source', 'cells_series', 'cells_parallel', 'cell_capacity_ah', 'ocv_soc', 'ocv_voltage_v',
-         'ocv_charge_voltage_v', 'r0_ohm', 'r1_ohm', 'tau1_s', 'r_fast_ohm', 'tau_fast_s', 'resistance_soc',
+         'ocv_charge_voltage_v', 'r0_ohm', 'r1_ohm', 'tau1_s', 'r_fast_ohm', 'tau_fast_s', 'surface_soc_lag_s',
+         'tau_surface_s', 'resistance_soc',
          'r0_soc_factor', 'r1_soc_factor', 'r_fast_soc_factor', 'coulombic_efficiency', 'cell_charge_voltage_v',
          'cell_cutoff_voltage_v',
          'charge_current_a', 'termination_current_a', 'load_current_a', 'load_power_w', 'drive_power_w_per_mps',

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from battery_simulator.core.fit import FitError, Fitted
-from battery_simulator.core.fit.circuit import log_arrays, regressors, state_of_charge
+from battery_simulator.core.fit.circuit import log_arrays, rc_filter, regressors, state_of_charge
 from battery_simulator.core.fit.known import KNOWN_SPREAD, REST_S, Known
 from battery_simulator.core.parameter_rules import MAX_CELLS
 
@@ -14,6 +14,8 @@ from battery_simulator.core.parameter_rules import MAX_CELLS
 TAU1_BOUNDS, TAU_FAST_BOUNDS = (60.0, 20000.0), (2.0, 200.0)
 #: an LFP slow pair at its bound gives way to one the fitted part can time where that fits within this factor
 SLOW_PAIR_TIE = 1.05
+#: the surface SOC's lag (surface_soc_lag_s, tau_surface_s): where the search starts and its bounds, s
+SURFACE_LAG_START, SURFACE_LAG_BOUNDS = (80.0, 300.0), ((1.0, 2000.0), (10.0, 5000.0))
 
 
 def parallel_count(capacity_ah, cell_capacity_ah):
@@ -35,12 +37,17 @@ class Electrical:
     pieces: list                   # per log: (arrays, soc, ocv, x0, x1, xf) at the solution
     cells_series: int
     cells_parallel: int
+    surface_soc_lag_s: float = 0.0  # 0: none (searched only with search_lag)
+    tau_surface_s: float = None
 
 
 def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest, start,
-                    max_evaluations=200, known=None):
+                    max_evaluations=200, known=None, search_lag=False):
     """The capacity, starting SOCs and time constants searched, the OCV offset and resistances solved; where
-    no log's current steps (steady_current) the resistances and time constants are the preset's."""
+    no log's current steps (steady_current) the resistances and time constants are the preset's. With
+    ``search_lag`` the surface SOC's lag (surface_soc_lag_s, tau_surface_s: the OCV read at the bulk SOC less
+    a first-order lag of the current) is searched too, and a cut-off's rest (known.empty_rest_at) pins the
+    capacity with it: the bulk SOC at the rest's end is its voltage's SOC plus the lag left there."""
     from scipy.optimize import least_squares
     p = chemistry.params
     steady = steady_current(logs)
@@ -56,6 +63,13 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
     known = known or Known()
     low = [z0[0] - math.log(20.0)] + [0.0] * n + [math.log(TAU1_BOUNDS[0]), math.log(TAU_FAST_BOUNDS[0])]
     high = [z0[0] + math.log(20.0)] + [1.0] * n + [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1])]
+    lag_at = n + 1   # z[lag_at], z[lag_at + 1]: log surface_soc_lag_s, log tau_surface_s (with search_lag)
+    if search_lag:
+        begin = ((start.surface_soc_lag_s, start.tau_surface_s) if start is not None and start.surface_soc_lag_s
+                 else SURFACE_LAG_START)
+        z0[lag_at:lag_at] = [math.log(v) for v in begin]
+        low[lag_at:lag_at] = [math.log(b[0]) for b in SURFACE_LAG_BOUNDS]
+        high[lag_at:lag_at] = [math.log(b[1]) for b in SURFACE_LAG_BOUNDS]
     if known.capacity_ah is not None:   # the capacity (and the starting SOCs) the logs fix
         z0[0] = math.log(known.capacity_ah)
         low[0], high[0] = z0[0] - KNOWN_SPREAD, z0[0] + KNOWN_SPREAD
@@ -70,9 +84,30 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
     counted = [np.cumsum(np.where(a.cell_current > 0, p.coulombic_efficiency * a.cell_current, a.cell_current)
                          * a.dt) / 3600.0 * cells_parallel for a in arrays]   # pack Ah
 
+    def lag(z):
+        """(surface_soc_lag_s, tau_surface_s), (0, None) without search_lag."""
+        return (math.exp(z[lag_at]), math.exp(z[lag_at + 1])) if search_lag else (0.0, None)
+
+    def capacity_of(z):
+        """The pack capacity: searched; pinned by a cut-off's rest, that pin moved by the lag left at its end."""
+        lag_s, tau = lag(z)
+        if not lag_s or known.empty_rest_at is None or known.capacity_ah is None:
+            return math.exp(z[0])
+        k, end = known.empty_rest_at
+        a = arrays[k]
+        left_a = rc_filter(-a.cell_current[:end + 1], np.exp(-a.dt[:end + 1] / tau))[-1] * cells_parallel
+        return float(math.exp(z[0]) * (1.0 + lag_s * left_a / 3600.0 / (1.0 - known.cutoff_soc) / known.capacity_ah))
+
+    def surface(a, soc, capacity, z):
+        """The SOC the OCV is read at: the bulk one less the lag (core/battery_model.py's surface_soc)."""
+        lag_s, tau = lag(z)
+        if not lag_s:
+            return soc
+        return soc - lag_s / (capacity / cells_parallel * 3600.0) * rc_filter(-a.cell_current, np.exp(-a.dt / tau))
+
     def starts(z):
         """Each log's starting SOC: searched, or 1 at a full charge's end."""
-        capacity = math.exp(z[0])
+        capacity = capacity_of(z)
         out = []
         for k in range(n):
             pin = known.start_pin(k)
@@ -83,13 +118,13 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
         return out
 
     def solve(z, use_tables):
-        capacity = math.exp(z[0])
+        capacity = capacity_of(z)
         tau1, tau_fast = math.exp(z[-2]), math.exp(z[-1])
         pieces, rows, targets = [], [], []
         soc0 = starts(z)
         for k, a in enumerate(arrays):
             soc = state_of_charge(a, capacity / cells_parallel, soc0[k], p.coulombic_efficiency)
-            ocv = chemistry.ocv_at(soc, a.weight)
+            ocv = chemistry.ocv_at(surface(a, soc, capacity, z), a.weight)
             x0, x1, xf = regressors(a, soc, scales[k], chemistry, tau1, tau_fast, use_tables)
             pieces.append((a, soc, ocv, x0, x1, xf))
             m = masks[k]
@@ -140,13 +175,17 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
     best = dict(values)
     best.setdefault('offset', 0.0)
     uncertainty = jacobian_sigmas(solution, rmse)
-    return Electrical(capacity_ah=math.exp(solution.x[0]), soc0=starts(solution.x),
+    capacity = capacity_of(solution.x)
+    lag_s, tau = lag(solution.x)
+    sigmas_of = {'capacity_ah': capacity * uncertainty[0], 'tau1_s': math.exp(solution.x[-2]) * uncertainty[-2],
+                 'tau_fast_s': math.exp(solution.x[-1]) * uncertainty[-1]}
+    if search_lag:
+        sigmas_of.update(surface_soc_lag_s=lag_s * uncertainty[lag_at], tau_surface_s=tau * uncertainty[lag_at + 1])
+    return Electrical(capacity_ah=capacity, soc0=starts(solution.x),
                       tau1_s=math.exp(solution.x[-2]), tau_fast_s=math.exp(solution.x[-1]),
                       coefficients={k: (best[k], sigmas.get(k)) for k in best}, rmse_v=rmse, use_tables=use_tables,
-                      uncertainty={'capacity_ah': math.exp(solution.x[0]) * uncertainty[0],
-                                   'tau1_s': math.exp(solution.x[-2]) * uncertainty[-2],
-                                   'tau_fast_s': math.exp(solution.x[-1]) * uncertainty[-1]},
-                      pieces=pieces, cells_series=cells_series, cells_parallel=cells_parallel)
+                      uncertainty=sigmas_of, pieces=pieces, cells_series=cells_series, cells_parallel=cells_parallel,
+                      surface_soc_lag_s=lag_s, tau_surface_s=tau)
 
 
 def jacobian_sigmas(solution, rmse):
@@ -258,6 +297,12 @@ def electrical_values(electrical, curve, chemistry, cells_series, cells_parallel
             continue
         changes[name] = float('%.4g' % getattr(electrical, name))
         fitted[name] = Fitted(changes[name], 'the relaxations\' time constant', electrical.uncertainty[name])
+    if electrical.surface_soc_lag_s:
+        for name, why in (('surface_soc_lag_s', 'the voltage near empty and the rest after a cut-off (the OCV read at '
+                           'a surface SOC that trails the counted one by this many seconds of the current)'),
+                          ('tau_surface_s', 'the time constant of that lag')):
+            changes[name] = float('%.4g' % getattr(electrical, name))
+            fitted[name] = Fitted(changes[name], why, electrical.uncertainty[name])
     if not electrical.use_tables and chemistry.table_soc is not None:
         changes.update(resistance_soc=(), r0_soc_factor=(), r1_soc_factor=(), r_fast_soc_factor=())
         fitted['resistance_soc'] = Fitted((), 'the preset\'s SOC factor tables fitted worse than none')

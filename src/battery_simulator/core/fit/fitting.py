@@ -116,6 +116,10 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
         results.append(_fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, level,
                                      'the rests\' voltages' if rests else 'the voltage at the SOC the logged '
                                      'percentage gives', dict(fitted), dict(kept), list(warnings), progress))
+    if _lag_identifiable(logs, known, chemistry_params):
+        results[0] = _with_surface_lag(results[0], logs, masks, splits, known, chemistry_params, chemistry_name,
+                                       cells_series, levels[0], 'the rests\' voltages' if rests else 'the voltage '
+                                       'at the SOC the logged percentage gives', fitted, kept, warnings, progress)
     score, chosen = results[0]
     if len(results) > 1:
         other = results[1][0]
@@ -129,21 +133,53 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     return chosen
 
 
+def _lag_identifiable(logs, known, chemistry_params):
+    """Whether the fitted part can tell a surface SOC's lag (surface_soc_lag_s): an LFP cell (its OCV falls
+    steeply only near empty) discharged to a cut-off with a rest after it (known.empty_rest_at)."""
+    return chemistry_params.chemistry == 'lfp' and known.empty_rest_at is not None and not steady_current(logs)
+
+
+def _with_surface_lag(plain, logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, has_rest,
+                      level_source, fitted, kept, warnings, progress):
+    """(score, FitResult): ``plain`` or the fit with a surface SOC's lag searched, taken where its replay of the
+    fitted part is clearly closer (VARIANT_GAIN). Near empty LFP's voltage depends on how the cell got there (the
+    A123 cell gives 1.038 Ah from full to its 1C cut-off, 1.051 to FUDS's): the OCV read at a surface SOC that
+    trails the counted one under current gives that, the charge counted exactly."""
+    score, chosen = plain
+    lagged_score, lagged = _fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series,
+                                         has_rest, level_source, dict(fitted), dict(kept), list(warnings), progress,
+                                         search_lag=True)
+    n = chosen.params.cells_series
+    if lagged.params.surface_soc_lag_s and lagged_score < VARIANT_GAIN * score:
+        lagged.fitted['surface_soc_lag_s'].source += '; the replay of the fitted part %.1f mV per cell with it, %.1f ' \
+            'without' % (1000 * lagged_score / n, 1000 * score / n)
+        if 'cutoff_soc' in lagged.fitted:   # (a Fitted the plain result shares: a new one)
+            pinned = lagged.fitted['cutoff_soc']
+            lagged.fitted['cutoff_soc'] = replace(pinned, source=pinned.source + '; with the surface SOC\'s lag left '
+                                                  'at the rest\'s end (bulk above surface) %.4g Ah'
+                                                  % lagged.params.design_capacity_ah)
+        return lagged_score, lagged
+    chosen.kept['surface_soc_lag_s'] = 'the replay of the fitted part %.1f mV per cell with a surface SOC\'s lag ' \
+        'searched, %.1f without: none' % (1000 * lagged_score / n, 1000 * score / n)
+    return score, chosen
+
+
 def _fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, cells_series, has_rest, level_source,
-                  fitted, kept, warnings, progress):
+                  fitted, kept, warnings, progress, search_lag=False):
     """(replayed RMSE of the fitted part, FitResult) at the series count and chemistry found, the OCV's
     offset fitted where ``has_rest``."""
     chemistry = Chemistry(chemistry_params)
     # -- the electrical fit, with the model's temperature
     progress(0.25, 'capacity and resistances')
     temperatures = [preset_temperature(log, chemistry) for log in logs]
-    electrical = fit_electrical(logs, masks, chemistry, cells_series, 1, temperatures, has_rest, None, known=known)
+    electrical = fit_electrical(logs, masks, chemistry, cells_series, 1, temperatures, has_rest, None, known=known,
+                                search_lag=search_lag)
     cells_parallel = parallel_count(electrical.capacity_ah, chemistry_params.cell_capacity_ah)
     heat_params = fit_thermal(logs, masks, chemistry, cells_parallel, electrical, fitted, kept, warnings)
     temperatures = [model_temperature(log, chemistry, cells_parallel, electrical, heat_params) for log in logs]
     progress(0.55, 'capacity and resistances (with the heat)')
     electrical = fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures, has_rest,
-                                 electrical, known=known)
+                                 electrical, known=known, search_lag=search_lag)
     check_capacity(logs, masks, electrical.capacity_ah)
     if known.soc0 is not None and not steady_current(logs):   # the percentage fixes the SOC: the preset's shape
         # may sit on it stretched
@@ -151,7 +187,7 @@ def _fit_at_count(logs, masks, splits, known, chemistry_params, chemistry_name, 
         if remapped is not None:
             chemistry = remapped
             electrical = fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, temperatures,
-                                         has_rest, electrical, known=known)
+                                         has_rest, electrical, known=known, search_lag=search_lag)
     progress(0.75, 'OCV curve')
     curve = None
     if steady_current(logs):

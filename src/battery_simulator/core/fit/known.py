@@ -49,6 +49,8 @@ class Known:
     source: str = ''
     empty_at: list = None          # per log, where no full charge fixes the start: a cut-off's sample (SOC 0)
     empty_rest_v: float = None     # the voltage a rest after the capacity's cut-off relaxed to (pack), or None
+    empty_rest_at: tuple = None    # (log, sample) where that rest ends, or None
+    cutoff_soc: float = 0.0        # the SOC of that rest's voltage on the table (pinned_at_dynamic_cutoff)
 
     def starts(self, logs):
         """Each log's starting SOC when the capacity and every start are fixed, else None."""
@@ -64,7 +66,9 @@ class Known:
     def thinned(self, steps):
         full_at, empty_at = ([None if f is None else f // step for f, step in zip(marks, steps)]
                              if marks is not None else None for marks in (self.full_at, self.empty_at))
-        return replace(self, full_at=full_at, empty_at=empty_at)
+        rest_at = None if self.empty_rest_at is None else (
+            self.empty_rest_at[0], self.empty_rest_at[1] // steps[self.empty_rest_at[0]])
+        return replace(self, full_at=full_at, empty_at=empty_at, empty_rest_at=rest_at)
 
     def start_pin(self, k):
         """('full' or 'empty', sample) fixing log ``k``'s start with the capacity, or None."""
@@ -84,13 +88,15 @@ def known_charge(logs, masks):
         return Known(capacity_ah=gauge[0], soc0=gauge[1], source='the logged percentage against the counted charge')
     full_at = [_full_charge_end(log, mask) for log, mask in zip(logs, masks)]
     capacity = None
-    rest_v = None
-    for log, mask, full in zip(logs, masks, full_at):
+    rest_v = rest_at = None
+    for k, (log, mask, full) in enumerate(zip(logs, masks, full_at)):
         empty = _cutoff_end(log, mask)
         if full is not None and empty is not None:
             charge = counted_charge_ah(log)
             capacity = abs(charge[full] - charge[empty])
-            rest_v = _rest_after(log, mask, empty)
+            rest_end = _rest_after(log, mask, empty)
+            if rest_end is not None:
+                rest_v, rest_at = float(log.voltage_v[rest_end]), (k, rest_end)
             break
     if capacity is None and all(f is None for f in full_at):
         # no full charge: a cut-off still pins SOC 0 (the start is then the charge counted to it over the
@@ -99,7 +105,7 @@ def known_charge(logs, masks):
         if any(e is not None for e in empty_at):
             return Known(empty_at=empty_at, source='a cut-off (SOC 0)')
         return Known()
-    return Known(capacity_ah=capacity, full_at=full_at, empty_rest_v=rest_v,
+    return Known(capacity_ah=capacity, full_at=full_at, empty_rest_v=rest_v, empty_rest_at=rest_at,
                  source='a CC-CV charge\'s end (SOC 1)' + (' and a cut-off (SOC 0)' if capacity else ''))
 
 
@@ -154,7 +160,7 @@ def _cutoff_end(log, mask, knee=False):
 
 
 def _rest_after(log, mask, end):
-    """The voltage at the end of a rest of at least CUTOFF_REST_S that begins at sample ``end`` (a cut-off's)
+    """The sample at the end of a rest of at least CUTOFF_REST_S that begins at sample ``end`` (a cut-off's)
     within the fitted part, or None."""
     i, t = log.current_a, log.time_s
     threshold = _small_current_a(log, mask)
@@ -163,7 +169,7 @@ def _rest_after(log, mask, end):
         last += 1   # (sample last's voltage answers the current of the interval before it)
     if abs(i[last]) > threshold:
         last -= 1
-    return float(log.voltage_v[last]) if last > end and t[last] - t[end] >= CUTOFF_REST_S else None
+    return last if last > end and t[last] - t[end] >= CUTOFF_REST_S else None
 
 
 def pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted):
@@ -184,7 +190,7 @@ def pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted):
                                       volts, soc, ' (taken at most %g)' % CUTOFF_SOC_MAX if soc > taken else '',
                                       known.capacity_ah, known.capacity_ah / (1.0 - taken)))
     soc = taken
-    return replace(known, capacity_ah=known.capacity_ah / (1.0 - soc))
+    return replace(known, capacity_ah=known.capacity_ah / (1.0 - soc), cutoff_soc=soc)
 
 
 def _ends_in_a_knee(t, v):
