@@ -86,8 +86,7 @@ def gauge_summary(model):
     gauge = model.gauge
     if gauge is None:
         return GaugeSummary(0, False, model.capacity_ah, None)
-    return GaugeSummary(getattr(gauge, 'corrections', 0), getattr(gauge, 'learned', False), gauge.capacity_ah,
-                        getattr(gauge, 'full', None))
+    return GaugeSummary(gauge.corrections, gauge.learned, gauge.capacity_as / 3600.0, gauge.full)
 
 
 def reported_status(status, gauge_full):

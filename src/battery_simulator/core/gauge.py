@@ -76,6 +76,9 @@ class CoulombCounter:
     #: whether the gauge looks at the voltage while the pack rests (a learning gauge's rest reading): a rest
     #: is then stepped as the gauge samples it, not in one exact step (battery_replay)
     watches_rests = False
+    #: what a learning gauge adds to the diagnostics (core/battery_record.py's GaugeSummary): a coulomb counter
+    #: makes no corrections, learns nothing and does not watch its own end of charge
+    corrections, learned, full = 0, False, None
 
     def __init__(self, config, true_capacity_ah, true_soc):
         """``true_capacity_ah``: the pack's capacity at start (aged as configured), which the gauge believes

@@ -152,8 +152,7 @@ class LearningGauge(CoulombCounter):
     def after_step(self, model, charge_as, dt_s, status_before):
         # the model calls this at every step (a fleet host: for each robot ten times a second): the discharge's
         # path does no more than count, average the load and look at the clock; the rest and taper watch run
-        # only while the current is small or a charge tapers
-        self._model = model
+        # only while the current is small or a charge tapers. (``model`` is the pack the gauge was made with.)
         if dt_s > 0.0:
             measured = charge_as * (1.0 + self.current_gain_error) + self.current_offset_a * dt_s
             deadband = self.deadband_a * dt_s
@@ -168,17 +167,18 @@ class LearningGauge(CoulombCounter):
                 self._average_dt = dt_s
                 self._average_decay = math.exp(-dt_s / self.settings['load_average_s'])
             if current < 0.0:
-                self.average_load_a = -current + (self.average_load_a + current) * self._average_decay
+                average_a = self.average_load_a = -current + (self.average_load_a + current) * self._average_decay
                 if self.full:
                     self._below_the_hold()
             else:
-                self.average_load_a *= self._average_decay    # no load: the average decays
+                average_a = self.average_load_a = self.average_load_a * self._average_decay   # no load: it decays
                 if current > 0.0:
                     if self.zero_locked:
                         self.zero_locked = False    # a charge releases 0 %
                     if self.full:
                         self._below_the_hold()
-            if current <= -self.relax_current_a or current >= self._busy_charge_a:
+            relax_a = self.relax_current_a
+            if current <= -relax_a or current >= self._busy_charge_a:
                 # a discharge, or a charge above the taper: no rest, no taper (the cheap way)
                 if self._watching:
                     self._rest_s, self._since_reading_s, self._taper_s, self._last_cell_v = 0.0, None, 0.0, None
@@ -189,24 +189,24 @@ class LearningGauge(CoulombCounter):
                 self._watch_taper(current, model, cell_v, dt_s)
                 self._watch_rest(current, cell_v, dt_s, model.temperature_c)
                 self._last_cell_v = cell_v
-            self._since_unusable_s += dt_s
-            if self._unusable_for is None or self._since_unusable_s >= RECOMPUTE_AFTER_S \
-                    or (self.average_load_a >= self.relax_current_a) is not self._unusable_loaded:
+            since_s = self._since_unusable_s = self._since_unusable_s + dt_s
+            if since_s >= RECOMPUTE_AFTER_S or (average_a >= relax_a) is not self._unusable_loaded \
+                    or self._unusable_for is None:
                 self._refresh_unusable(model.temperature_c)
             if current < 0.0 and self.soc <= self.unusable and not self.zero_locked and self.settings['lock_zero']:
                 self.zero_locked = True
         elif self._unusable_for is None:
             self._refresh_unusable(model.temperature_c)
         status = model.status
-        if status is not status_before and status.name == 'EMPTY' and model.cut_off is not None \
-                and model.cut_off.name == 'UNDER_VOLTAGE':
-            self._at_cut_off()
-        elif status is not status_before and status.name == 'FULL' and not self.full and dt_s > 0.0:
-            # the charger ended the charge itself: at its termination current, below the taper current, which
-            # a gauge sampling once a second sees in the band before the current stops; the model's step may
-            # end the charge above it (a pack filled first, an aged one: 0.18 A against a 0.055 A taper), and
-            # then the gauge held 99 % on the dock for ever. A charge cut short (contact lost) is no Full.
-            self._taper_s = max(self._taper_s, dt_s)
+        if status is not status_before:
+            if status.name == 'EMPTY' and model.cut_off is not None and model.cut_off.name == 'UNDER_VOLTAGE':
+                self._at_cut_off()
+            elif status.name == 'FULL' and not self.full and dt_s > 0.0:
+                # the charger ended the charge itself: at its termination current, below the taper current, which
+                # a gauge sampling once a second sees in the band before the current stops; the model's step may
+                # end the charge above it (a pack filled first, an aged one: 0.18 A against a 0.055 A taper), and
+                # then the gauge held 99 % on the dock for ever. A charge cut short (contact lost) is no Full.
+                self._taper_s = max(self._taper_s, dt_s)
         self._shown = None   # the reading is computed again when asked
 
     def reading(self):
@@ -214,17 +214,21 @@ class LearningGauge(CoulombCounter):
         once after each step (the model asks twice: the percentage, and the charge for the time remaining)."""
         shown = self._shown
         if shown is None:
-            full_ah = self.capacity_as / 3600.0 * (1.0 - self.unusable)
-            fraction = self.fraction
+            usable = 1.0 - self.unusable
+            full_ah = self.capacity_as / 3600.0 * usable
+            fraction = self._fraction(usable)
             shown = self._shown = (100.0 * fraction, fraction * full_ah, full_ah)
         return shown
 
     @property
     def fraction(self):
         """The percentage shown, 0-1."""
+        return self._fraction(1.0 - self.unusable)
+
+    def _fraction(self, usable):
         if self.zero_locked:
             return 0.0
-        fraction = (self.soc - self.unusable) / (1.0 - self.unusable)
+        fraction = (self.soc - self.unusable) / usable
         fraction = 0.0 if fraction < 0.0 else (1.0 if fraction > 1.0 else fraction)
         return fraction if self.full else min(fraction, HOLD_BEFORE_FULL)
 
