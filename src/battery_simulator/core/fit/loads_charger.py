@@ -7,6 +7,7 @@ import numpy as np
 
 from battery_simulator.core.fit import Fitted
 from battery_simulator.core.fit.known import CHARGE_MIN_S, runs
+from battery_simulator.core.parameter_rules import CHARGE_VOLTAGE_ABOVE_FULL_V
 
 #: the datasheet currents are raised to this many times the fitted part's largest
 LIMIT_MARGIN = 2.0
@@ -97,7 +98,9 @@ def fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, cha
                     else 0.0) for log, mask in zip(logs, masks)) / cells_series
     tapering = np.concatenate([c[c < 0.7 * current] for c in charging])
     if len(tapering) >= 5 and top > 0:
-        limit = math.floor(1e4 * min(top, changes['ocv_voltage_v'][-1])) / 1e4   # within the OCV table
+        # its highest voltage, within what the model takes (parameter_rules: at most CHARGE_VOLTAGE_ABOVE_FULL_V
+        # above the OCV table's top)
+        limit = math.floor(1e4 * min(top, changes['ocv_voltage_v'][-1] + CHARGE_VOLTAGE_ABOVE_FULL_V)) / 1e4
         if limit > changes['cell_cutoff_voltage_v']:
             result['cell_charge_voltage_v'] = limit
             fitted['cell_charge_voltage_v'] = Fitted(result['cell_charge_voltage_v'], 'the charge\'s constant '
