@@ -19,6 +19,8 @@ always has them, ros2/fleet_dds.py).
                                                                       # rclpy node (no battery, no Python of ours), N
                                                                       # robots (200), with the fleet host's Fast DDS
                                                                       # profile beside the profile in force alone
+    tools/ros2.sh python3 tools/ros2_benchmark.py gauge [N ...]       # the fleet host at N robots (1000) with the
+                                                                      # learning gauge beside the default one: CPU
 """
 import http.client
 import json
@@ -441,6 +443,53 @@ def dashboard(rows, n=100):
         stop(host)
 
 
+#: the gauges gauge_cost compares: the default (ideal: the truth shown) and tools/gauge_benchmark.py's learning gauge
+GAUGE_CONFIGS = {'ideal': 'preset: lg_hg2_3s1p\ngauge: {model: ideal}\n',
+                 'learning': 'preset: lg_hg2_3s1p\ngauge: {model: learning, current_offset_a: 0.01, '
+                             'capacity_error: 0.05}\n'}
+GAUGE_RUNS = 2
+
+
+def gauge_cost(rows, n, start_within_s=600.0):
+    """The fleet host's CPU at ``n`` robots with the learning gauge beside the same host with the default gauge
+    (ideal), at steady state (its 1 Hz updates, every battery_status published), GAUGE_RUNS runs of each,
+    interleaved: issue 43's "a fleet of 1000 with it within 10 % of the fleet's cost without it" as a fleet costs
+    (tools/gauge_benchmark.py measures Battery.update alone, at 10 Hz)."""
+    directory = tempfile.mkdtemp(prefix='gauge_cost_')
+    paths = {}
+    for gauge, text in GAUGE_CONFIGS.items():
+        paths[gauge] = os.path.join(directory, gauge + '.yaml')
+        with open(paths[gauge], 'w') as stream:
+            stream.write(text)
+    cpu = {gauge: [] for gauge in GAUGE_CONFIGS}
+    for _ in range(GAUGE_RUNS):
+        for gauge, path in paths.items():
+            started = time.time()
+            host = subprocess.Popen(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=gc',
+                                     '-p', 'config:=' + path, '-p', 'initial_percentage:=90.0'],
+                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            lines = []
+            threading.Thread(target=lambda: lines.extend(host.stdout), daemon=True).start()
+            try:
+                while not any('battery_fleet ready' in line for line in lines) and host.poll() is None and \
+                        time.time() - started < start_within_s:
+                    time.sleep(0.2)
+                time.sleep(10.0)   # settle after start-up
+                cpu[gauge].append(cpu_percent([host.pid], CPU_WINDOW_S)[host.pid])
+            finally:
+                stop(host)
+    for path in paths.values():
+        os.remove(path)
+    os.rmdir(directory)
+    ideal, learning = (sum(cpu[g]) / len(cpu[g]) for g in ('ideal', 'learning'))
+    rows.append(('fleet host, %d robots, learning gauge' % n,
+                 '%.1f %% of a core (%s), %.3fx the default gauge' % (learning, ', '.join('%.1f' % c for c in
+                                                                                        cpu['learning']),
+                                                                     learning / ideal),
+                 'default (ideal) gauge %.1f %% (%s)' % (ideal, ', '.join('%.1f' % c for c in cpu['ideal'])),
+                 '<= 1.10x'))
+
+
 def main():
     arguments = sys.argv[1:]
     lean_dds = '--lean-dds' in arguments
@@ -453,6 +502,9 @@ def main():
     elif 'endpoints' in arguments:
         for n in sizes or [200]:
             endpoints(rows, n)
+    elif 'gauge' in arguments:
+        for n in sizes or [1000]:
+            gauge_cost(rows, n)
     else:
         one_battery(rows)
         for n in sizes or [100, 250, 500, 1000]:
