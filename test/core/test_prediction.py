@@ -399,4 +399,4 @@ def test_cli_charge_says_where_a_gauge_started_and_ended(tmp_path):
     expected_s = predict(gauged(20), [], until_full=True).charge_time_s
     assert float(rows[-1]['time']) == pytest.approx(expected_s, abs=0.01)
     assert result.stderr == ('battery_replay: lg_hg2_3s1p charged at 1.5 A from 20 %% to Full in %.0f s (%s); the '
-                             'gauge read 22.0 %% then 100.0 %%\n' % (expected_s, '2 h 04 min'))
+                             'gauge read 22.0 %% then 100.0 %%\n' % (expected_s, '1 h 44 min'))

@@ -205,8 +205,8 @@ class GroupedPack(BatteryModel):
         self.cell_current_a = current / p.cells_parallel
         if current > 0.0:
             self.status = Status.CHARGING
-            if any(g.state_of_charge >= 1.0 for g in groups):   # the step filled a group: the charge ends
-                self._end_charge()
+            if any(g.state_of_charge >= 1.0 for g in groups) or self._terminates(current, demand):
+                self._end_charge()   # the step filled a group, or the charger saw its termination current
 
     def _charge_groups(self, dt_s, demand):
         """Charge every group over ``dt_s`` at the current the most limiting group's CC-CV allows (the
@@ -292,6 +292,15 @@ class GroupedPack(BatteryModel):
         if bleeds:   # (without balancing no group ever bleeds)
             self.bleeding = [bool(b) for b in bleeds]
         return True
+
+    def _terminates(self, current, demand):
+        """The charger's own rule on the string's ``current`` (what it measures, A) in a step just taken: in its
+        CV phase (less than ``demand``) at or below the termination current it ends the charge. A group's own
+        taper ends before such a step (``_try``); this is for a string held at that current otherwise: a group
+        about to fill allows only what fills it, and balancing bled that much past it, so it never filled
+        (lg_hg2_7s4p_aged: the string at 0.05 A, the bleed, for 11500 s after a 0.2 A termination was due; its
+        gauge, rightly, saw its end of charge there, 3.2 h before the model's FULL)."""
+        return current < demand and current <= self._termination_a
 
     def _end_charge(self):
         """The charge has ended (the taper at the termination current, or a group filled): FULL, no current in
