@@ -72,7 +72,8 @@ def test_a_ctrl_c_whose_exit_a_finaliser_swallowed_still_exits_130_before_any_go
             'try:\n    client_cli.main(["1", "--server-timeout", "1"])\nexcept SystemExit as exit:\n'
             '    print(exit.code)\n')
     # the built package's messages first (devel's PYTHONPATH), then the sources
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.environ.get('PYTHONPATH', ''), str(SRC)]),
+    paths = [p for p in os.environ.get('PYTHONPATH', '').split(os.pathsep) if p and Path(p).resolve() != SRC]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths + [str(SRC)]),
                ROS_MASTER_URI='http://127.0.0.1:9')   # nothing listens on the discard port: no goal can go
     result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, env=env, timeout=60)
     assert result.stdout.split()[-1:] == ['130'], result.stdout + result.stderr   # before: 3, no ROS master
