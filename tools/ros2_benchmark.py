@@ -204,6 +204,24 @@ print(json.dumps({'first': first, 'stamped': stamped, 'states': states}))
         return json.loads(self.process.communicate(timeout=60.0)[0])
 
 
+def fleet_host(parameters, environment=None):
+    """battery_fleet started with ``parameters`` (name:=value each): (the process, the list its output lines are
+    read into, in a thread of its own)."""
+    host = subprocess.Popen(['battery_fleet', '--ros-args'] + [word for p in parameters for word in ('-p', p)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=environment)
+    lines = []
+    threading.Thread(target=lambda: lines.extend(host.stdout), daemon=True).start()
+    return host, lines
+
+
+def wait_until_ready(host, lines, within_s=600.0):
+    """Until the host says it is ready (or ends, or ``within_s`` passed)."""
+    deadline = time.monotonic() + within_s
+    while not any('battery_fleet ready' in line for line in lines) and host.poll() is None and \
+            time.monotonic() < deadline:
+        time.sleep(0.2)
+
+
 def fleet(rows, n, lean_dds=False, start_within_s=600.0):
     """The host at ``n`` robots beside a bare rclpy publisher measured in the same run: RSS and CPU at steady
     state (1 Hz), launch to every robot's first battery_status, /battery_fleet/states' rate, SIGINT to exit."""
@@ -215,16 +233,10 @@ def fleet(rows, n, lean_dds=False, start_within_s=600.0):
     listener = FleetListener(topics)
     time.sleep(2.0)   # the listener's subscriptions exist before the host starts
     started = time.time()
-    host = subprocess.Popen(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=' + prefix,
-                             '-p', 'initial_percentage:=90.0'], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env=environment)
+    host, lines = fleet_host(['robots:=%d' % n, 'prefix:=' + prefix, 'initial_percentage:=90.0'], environment)
     bare = start([sys.executable, '-c', BARE_PUBLISHER])
-    lines = []
-    threading.Thread(target=lambda: lines.extend(host.stdout), daemon=True).start()
     try:
-        while not any('battery_fleet ready' in line for line in lines) and host.poll() is None and \
-                time.time() - started < start_within_s:
-            time.sleep(0.2)
+        wait_until_ready(host, lines, start_within_s)
         ready_s = time.time() - started
         time.sleep(10.0)   # settle after start-up
         cpu = cpu_percent([host.pid, bare.pid], CPU_WINDOW_S)
@@ -389,16 +401,10 @@ def dashboard(rows, n=100):
     """battery_dashboard beside a fleet of ``n`` at 1 Hz with the overview open in headless Chromium: the dashboard
     is started once the fleet host is ready, and timed to every battery in its API (its cards)."""
     port = free_port()
-    host = subprocess.Popen(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=bench'],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines = []
-    threading.Thread(target=lambda: lines.extend(host.stdout), daemon=True).start()
+    host, lines = fleet_host(['robots:=%d' % n, 'prefix:=bench'])
     board = page = None
     try:
-        deadline = time.monotonic() + 600.0
-        while not any('battery_fleet ready' in line for line in lines) and host.poll() is None and \
-                time.monotonic() < deadline:
-            time.sleep(0.2)
+        wait_until_ready(host, lines)
         started = time.monotonic()
         board = start(['battery_dashboard', '--ros-args', '-p', 'port:=%d' % port])
         deadline = started + 300.0
@@ -464,16 +470,9 @@ def gauge_cost(rows, n, start_within_s=600.0):
     cpu = {gauge: [] for gauge in GAUGE_CONFIGS}
     for _ in range(GAUGE_RUNS):
         for gauge, path in paths.items():
-            started = time.time()
-            host = subprocess.Popen(['battery_fleet', '--ros-args', '-p', 'robots:=%d' % n, '-p', 'prefix:=gc',
-                                     '-p', 'config:=' + path, '-p', 'initial_percentage:=90.0'],
-                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-            lines = []
-            threading.Thread(target=lambda: lines.extend(host.stdout), daemon=True).start()
+            host, lines = fleet_host(['robots:=%d' % n, 'prefix:=gc', 'config:=' + path, 'initial_percentage:=90.0'])
             try:
-                while not any('battery_fleet ready' in line for line in lines) and host.poll() is None and \
-                        time.time() - started < start_within_s:
-                    time.sleep(0.2)
+                wait_until_ready(host, lines, start_within_s)
                 time.sleep(10.0)   # settle after start-up
                 cpu[gauge].append(cpu_percent([host.pid], CPU_WINDOW_S)[host.pid])
             finally:

@@ -8,6 +8,7 @@ import pytest
 from battery_simulator.core.battery_states import Mode, Status
 from battery_simulator.core.config_files import from_mapping, gauge_preset_names, preset, preset_names
 from battery_simulator.core.pack import make_model
+from gauge_charges import charge_watch
 
 #: each pack with the plain learning gauge (None) and each gauge preset
 GAUGES = [None] + gauge_preset_names()
@@ -20,30 +21,9 @@ def learning(pack, gauge):
 
 
 def charge(params, stop_at_as=None):
-    """Charge from START_SOC until the charger's Full (and 200 s on) or until ``stop_at_as`` A*s went in: (the model,
-    the time the gauge first showed 100 %, the time the charger terminated, the highest percentage shown before
-    100 %, the charge put in A*s)."""
+    """From START_SOC: (the model, then gauge_charges.charge_watch's four figures)."""
     model = make_model(params, START_SOC, Mode.IDLE)
-    model.set_mode(Mode.CHARGE)
-    t = charged = 0.0
-    hundred = terminated = None
-    highest = 0.0
-    while t < 40000.0:
-        model.step(DT_S)
-        t += DT_S
-        charged += model.cell_current_a * params.cells_parallel * DT_S   # what the charge put in (no top-up)
-        shown = model.gauge_reading()[0]
-        if shown >= 100.0:
-            hundred = t if hundred is None else hundred
-        elif hundred is None:
-            highest = max(highest, shown)
-        if terminated is None and model.status is Status.FULL:
-            terminated = t
-        if stop_at_as is not None and charged >= stop_at_as:
-            break
-        if terminated is not None and t > terminated + 200.0:
-            break
-    return model, hundred, terminated, highest, charged
+    return (model,) + charge_watch(model, DT_S, stop_at_as)
 
 
 @pytest.mark.parametrize('gauge', GAUGES)

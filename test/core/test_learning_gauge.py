@@ -11,6 +11,7 @@ from battery_simulator.core.config_files import (from_mapping, gauge_preset, gau
 from battery_simulator.core.learning_gauge import CAPACITY_LEARNED, END_OF_CHARGE, OCV_REST
 from battery_simulator.core.pack import make_model
 from battery_simulator.core.parameter_rules import ParameterError
+from gauge_charges import charge_watch
 
 PACK = 'lg_hg2_3s1p'
 DESIGN_AH = preset(PACK).design_capacity_ah
@@ -168,30 +169,6 @@ def test_no_update_at_5_degc(ambient_c, updates):
 
 
 # -- end of charge -----------------------------------------------------------------------------------
-
-def charge_watch(model, dt_s=1.0, stop_at_as=None):
-    """Charge until Full (or until ``stop_at_as`` A*s went in): (the time 100 % first showed, the time the
-    charger terminated, the highest percentage before 100 %, the charge put in A*s)."""
-    model.set_mode(Mode.CHARGE)
-    t = charged = 0.0
-    hundred = terminated = None
-    highest = 0.0
-    while t < 40000.0:
-        model.step(dt_s)
-        t += dt_s
-        charged += model.cell_current_a * model.params.cells_parallel * dt_s
-        if shown(model) >= 100.0:
-            hundred = t if hundred is None else hundred
-        else:
-            highest = max(highest, shown(model))
-        if terminated is None and full(model):
-            terminated = t
-        if stop_at_as is not None and charged >= stop_at_as:
-            break
-        if terminated is not None and t > terminated + 200.0:
-            break
-    return hundred, terminated, highest, charged
-
 
 @pytest.mark.parametrize('belief', [0.0, -0.10])
 def test_99_percent_holds_through_the_taper_until_at_most_120_s_before_the_charger_terminates(belief):
