@@ -400,3 +400,21 @@ def test_cli_charge_says_where_a_gauge_started_and_ended(tmp_path):
     assert float(rows[-1]['time']) == pytest.approx(expected_s, abs=0.01)
     assert result.stderr == ('battery_replay: lg_hg2_3s1p charged at 1.5 A from 20 %% to Full in %.0f s (%s); the '
                              'gauge read 22.0 %% then 100.0 %%\n' % (expected_s, '1 h 44 min'))
+
+
+def test_cli_charge_with_a_learning_gauge_goes_on_to_the_gauges_own_end_of_charge(tmp_path):
+    """Issue 43's end of charge in battery_replay's CSV: the rows ended at the charger's Full with the learning gauge
+    at 99 % and no end_of_charge (the gauge's two 40 s windows end 75 s later on this pack), so a user never saw
+    its 100 %. They go on, held full on the charger, to the gauge's end of charge; the time said is the
+    charger's."""
+    config = tmp_path / 'learning.yaml'
+    config.write_text('preset: lg_hg2_3s1p\ngauge: {model: learning}\n')
+    out = tmp_path / 'charge.csv'
+    result = run_cli('--charge', '1.5', '--soc', '0.2', '--config', config, '-o', out)
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    terminated = next(float(row['time']) for row in rows if row['status'] == 'FULL')
+    assert float(rows[-1]['gauge_soc']) == 1.0 and rows[-1]['gauge_event'] == 'end_of_charge', rows[-1]
+    assert terminated < float(rows[-1]['time']) <= terminated + 90.0   # Part 9: 100 % at most 90 s after it
+    assert all(float(row['gauge_soc']) <= 0.99 for row in rows[:-1])
+    assert 'to Full in %.0f s' % terminated in result.stderr and 'then 100.0 %' in result.stderr, result.stderr

@@ -222,7 +222,8 @@ def predict(model, segments, charge_to_percentage=math.nan, observe=None, until_
 
     Levels are the fuel gauge's (what a robot reads; the truth with an ideal gauge): ``end_percentage``,
     and the charge ends when the gauge reads ``charge_to_percentage`` or the pack is Full, whichever first.
-    ``until_full``: the charge ends at Full only, whatever the gauge reads (battery_replay.py --charge).
+    ``until_full``: the charge ends at Full only (battery_replay.py --charge): the charger's, whatever a counter
+    reads; observed on to a learning gauge's own end of charge (GAUGE_FULL_WAIT_S at most), its time the charger's.
     ``model`` is not changed (the prediction runs on a copy of it). ``observe(time_s, model)``, if
     given, sees the copy at the start and after every step. Raises PredictionError for a bad plan.
     """
@@ -390,6 +391,7 @@ class _Run:
         """Seconds from the end of the segments until the gauge reads ``target_percentage`` or the pack is
         Full, whichever first (inf: never), the charger connected. A target of inf: until Full."""
         model, params = self.model, self.model.params
+        until_full = math.isinf(target_percentage)
         model.set_extra_load(PLAN_LOAD)
         model.set_mode(Mode.CHARGE)
         start_s = self.time_s
@@ -400,11 +402,14 @@ class _Run:
             if self._reached(target_percentage):
                 if _reads_full(model):
                     self._observe(self.time_s, model)   # the moment it turned FULL
+                if until_full:   # the charger's Full; the rows went on to the gauge's
+                    return (full_at_s if full_at_s < math.inf else self.time_s) - start_s
                 return self.time_s - start_s
             if model.charger_fault:
                 return math.inf
             if model.status is Status.FULL and self.time_s - full_at_s > GAUGE_FULL_WAIT_S:
-                return math.inf   # the charger has ended, the gauge never will: the robot never reads it
+                # the charger has ended, the gauge never will: the robot never reads it (until Full: the charger's)
+                return full_at_s - start_s if until_full else math.inf
             # the CV taper, and a gauge's own end of charge after the charger's (a learning gauge's windows)
             near_cv = model.status is Status.FULL or model.status is Status.CHARGING and (
                 model.current_a < 0.999 * params.charge_current_a
@@ -416,6 +421,8 @@ class _Run:
             if model.status is Status.FULL and full_at_s == math.inf:
                 full_at_s = self.time_s
             if self._reached(target_percentage):
+                if until_full:
+                    return full_at_s - start_s
                 after = _level(model)
                 if _reads_full(model) or after <= before:   # the taper (or the gauge's) ended within this step
                     return self.time_s - start_s
@@ -433,10 +440,11 @@ class _Run:
     def _reached(self, target_percentage):
         """The charge ends at the level the robot reads (the gauge's), or at Full as the robot reads it (a
         learning gauge's own end of charge, a minute after the charger's); no level (inf, battery_replay
-        --charge's until full): at the charger's."""
+        --charge's until full): at the charger's Full and the gauge's both (its rows show the gauge's 100 %
+        and its end_of_charge; the time is the charger's)."""
         model = self.model
         if math.isinf(target_percentage):
-            return model.status is Status.FULL
+            return model.status is Status.FULL and _reads_full(model)
         return _reads_full(model) or _level(model) >= target_percentage
 
     def _advance(self, step_s):

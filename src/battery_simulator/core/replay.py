@@ -23,7 +23,10 @@ step, and on stderr how long it took.
 ``--soc`` is the truth (the output's ``soc``), as a node's initial_percentage:
 a pack's fuel gauge starts where its config puts it (``initial_error``), in
 ``gauge_soc``. A charge ends at Full (the truth's end of the taper), whatever
-the gauge reads then; stderr names the gauge's start and end when they differ.
+a counter reads then; a learning gauge's rows go on, the pack held full on the
+charger, to its own end of charge (its 100 % and ``end_of_charge``; at most
+an hour). The time said is the charger's; stderr names the gauge's start and
+end when they differ.
 """
 import argparse
 import contextlib
