@@ -435,7 +435,11 @@ class _Run:
         if model.current_a <= 0.0:   # no current (over-temperature): wait for the pack to cool
             return CURRENT_STEP_S
         step_s = CC_STEP_CHARGE * model.capacity_ah * 3600.0 / model.current_a
-        return min(max(step_s, CV_STEP_S), CURRENT_STEP_S)
+        # no further than the pack fills (SOC 1: a pack of groups' fullest group, which at a low current fills
+        # below the CV onset): its Full found to within a CV step, not at a long step's end
+        fills_s = (1.0 - model.state_of_charge) * model.capacity_ah * 3600.0 / (
+            model.params.coulombic_efficiency * model.current_a)
+        return min(max(min(step_s, fills_s), CV_STEP_S), CURRENT_STEP_S)
 
     def _reached(self, target_percentage):
         """The charge ends at the level the robot reads (the gauge's), or at Full as the robot reads it (a
