@@ -136,3 +136,16 @@ def test_the_charge_voltage_says_when_it_is_cut_to_what_the_model_takes(cv_v, wr
                          fitted, kept)
     assert result['cell_charge_voltage_v'] == pytest.approx(written)
     assert said in fitted['cell_charge_voltage_v'].source
+
+
+def test_without_a_charge_the_charge_voltage_is_said_kept():
+    """A log with no charge (the A123 DST log cut after its CC-CV charge) wrote cell_charge_voltage_v (3.8709 V)
+    with no line in the report, neither fitted nor kept."""
+    from types import SimpleNamespace
+    from battery_simulator.core.fit.loads_charger import fit_charger
+    time_s = np.arange(0.0, 3600.0, 5.0)
+    log = SimpleNamespace(time_s=time_s, voltage_v=3.3 - time_s * 1e-4, current_a=np.full(len(time_s), -1.0))
+    changes = {'cell_capacity_ah': 1.1, 'ocv_voltage_v': (2.5, 3.3, 3.6), 'cell_cutoff_voltage_v': 2.5}
+    fitted, kept = {}, {}
+    fit_charger([log], [np.ones(len(time_s), dtype=bool)], 1, 1, preset('a123_lfp_cell'), changes, fitted, kept)
+    assert 'cell_charge_voltage_v' in kept and 'cell_charge_voltage_v' not in fitted

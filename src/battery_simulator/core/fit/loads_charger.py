@@ -86,6 +86,7 @@ def fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, cha
     result = {}
     if len(currents) < 10:
         kept['charge_current_a'] = 'no charge in the logs: the preset\'s C-rate at the fitted capacity'
+        kept['cell_charge_voltage_v'] = 'no charge in the logs: the preset\'s, within the fitted OCV table'
         result['charge_current_a'] = float('%.4g' % (p.charge_current_a / p.design_capacity_ah
                                                      * changes['cell_capacity_ah'] * cells_parallel))
         return result
