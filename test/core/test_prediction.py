@@ -109,6 +109,14 @@ def test_empty_arrays_count_as_zeros_and_signed_motion_counts_as_cmd_vel_does():
      '300.0 is invalid: must be a number in [0, 252] W (the most the pack can deliver)'),
     (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
     (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
+    # segments given to predict() itself are checked as Predict.srv's arrays are (plan_from_arrays); before, a
+    # negative or NaN current and a negative or NaN duration were taken as they were, and an infinite one hung
+    (Segment(60, current_a=-1.0), NAN, 'current_a[0] = -1.0 is invalid: must be a number of amperes >= 0 (a load)'),
+    (Segment(60, current_a=NAN), NAN, 'current_a[0] = nan is invalid: must be a number of amperes >= 0 (a load)'),
+    (Segment(-60), NAN, 'duration_s[0] = -60 is invalid: must be a number of seconds >= 0'),
+    (Segment(NAN), NAN, 'duration_s[0] = nan is invalid: must be a number of seconds >= 0'),
+    (Segment(math.inf), NAN, 'duration_s[0] = inf is invalid: must be a number of seconds >= 0'),
+    (Segment(MAX_PLAN_S + 1.0), NAN, 'duration_s totals 604801 s, which is invalid: a plan is at most 604800 s (7 days)'),
 ])
 def test_loads_beyond_the_pack_and_bad_levels_are_refused(segment, charge_to, message):
     with pytest.raises(PredictionError) as error:
