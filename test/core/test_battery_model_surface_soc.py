@@ -91,8 +91,26 @@ def test_cv_ends_at_the_charge_voltage_with_the_lag():
     assert model.status is Status.FULL
 
 
-@pytest.mark.parametrize('name, value', [('surface_soc_lag_s', -1.0), ('tau_surface_s', 0.0)])
+@pytest.mark.parametrize('name, value', [('surface_soc_lag_s', -1.0), ('tau_surface_s', 0.0),
+                                         ('surface_soc_lag_s', 3601.0), ('surface_soc_lag_s', 1e6),
+                                         ('surface_soc_lag_s', 1.7e308), ('surface_soc_lag_s', float('nan')),
+                                         ('tau_surface_s', float('inf')), ('surface_soc_lag_s', 'abc')])
 def test_a_bad_value_is_one_line_naming_it(name, value):
     with pytest.raises(ParameterError) as error:
         from_mapping({name: value})
     assert name in str(error.value) and '\n' not in str(error.value)
+
+
+def test_the_longest_lag_charges_like_a_cell_and_its_state_resumes():
+    """At MAX_SURFACE_SOC_LAG_S, a charge at the cell's largest charge current from 20 % ends Full near the
+    top and the state it saves resumes (1e6 s, allowed before: Full at 20 % within 3 s, a saved lag of -1.43
+    that restore_state refused)."""
+    from battery_simulator.core.parameter_rules import MAX_SURFACE_SOC_LAG_S
+    params = from_mapping({'surface_soc_lag_s': MAX_SURFACE_SOC_LAG_S})
+    model = BatteryModel(params, state_of_charge=0.2, mode=Mode.IDLE)
+    while model.status is not Status.FULL:
+        model.step(10.0, current_a=params.cell_max_charge_current_a * 0.99)
+    assert model.state_of_charge > 0.9
+    again = BatteryModel(params, state_of_charge=0.5, mode=Mode.IDLE)
+    again.restore_state(model.export_state())
+    assert again.surface_soc_lag == model.surface_soc_lag

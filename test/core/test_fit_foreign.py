@@ -116,3 +116,36 @@ def test_a_learned_curve_joins_the_presets_table_without_a_point_twice(ends):
     soc = changes['ocv_soc']
     assert soc[0] == 0.0 and soc[-1] == 1.0 and all(b > a for a, b in zip(soc, soc[1:])), soc
     assert len(changes['ocv_voltage_v']) == len(soc)
+
+
+@pytest.mark.parametrize('cv_v, written, said', [(3.62, 3.62, 'its highest cell voltage'),
+                                                 (3.70, 3.65, 'its highest cell voltage 3.7 V, cut to')])
+def test_the_charge_voltage_says_when_it_is_cut_to_what_the_model_takes(cv_v, written, said):
+    """The fitted charge voltage is the log's highest in the taper, at most CHARGE_VOLTAGE_ABOVE_FULL_V above
+    the OCV table's top (3.60 V here). Cut, the report said 'its highest cell voltage' of a value the log
+    never showed (the A123 US06 log fitted as --chemistry li-ion: 3.444 V written, the log's CV 3.60 V)."""
+    from types import SimpleNamespace
+    from battery_simulator.core.fit.loads_charger import fit_charger
+    time_s = np.arange(0.0, 3600.0, 5.0)
+    current_a = np.where(time_s < 1800.0, 1.0, np.maximum(1.0 - (time_s - 1800.0) / 1800.0, 0.06))
+    voltage_v = np.where(time_s < 1800.0, 3.3 + (cv_v - 3.3) * time_s / 1800.0, cv_v)
+    log = SimpleNamespace(time_s=time_s, voltage_v=voltage_v, current_a=current_a)
+    changes = {'cell_capacity_ah': 1.1, 'ocv_voltage_v': (2.5, 3.3, 3.6), 'cell_cutoff_voltage_v': 2.5}
+    fitted, kept = {}, {}
+    result = fit_charger([log], [np.ones(len(time_s), dtype=bool)], 1, 1, preset('a123_lfp_cell'), changes,
+                         fitted, kept)
+    assert result['cell_charge_voltage_v'] == pytest.approx(written)
+    assert said in fitted['cell_charge_voltage_v'].source
+
+
+def test_without_a_charge_the_charge_voltage_is_said_kept():
+    """A log with no charge (the A123 DST log cut after its CC-CV charge) wrote cell_charge_voltage_v (3.8709 V)
+    with no line in the report, neither fitted nor kept."""
+    from types import SimpleNamespace
+    from battery_simulator.core.fit.loads_charger import fit_charger
+    time_s = np.arange(0.0, 3600.0, 5.0)
+    log = SimpleNamespace(time_s=time_s, voltage_v=3.3 - time_s * 1e-4, current_a=np.full(len(time_s), -1.0))
+    changes = {'cell_capacity_ah': 1.1, 'ocv_voltage_v': (2.5, 3.3, 3.6), 'cell_cutoff_voltage_v': 2.5}
+    fitted, kept = {}, {}
+    fit_charger([log], [np.ones(len(time_s), dtype=bool)], 1, 1, preset('a123_lfp_cell'), changes, fitted, kept)
+    assert 'cell_charge_voltage_v' in kept and 'cell_charge_voltage_v' not in fitted

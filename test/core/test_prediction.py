@@ -109,6 +109,14 @@ def test_empty_arrays_count_as_zeros_and_signed_motion_counts_as_cmd_vel_does():
      '300.0 is invalid: must be a number in [0, 252] W (the most the pack can deliver)'),
     (Segment(60), 101.0, 'charge_to_percentage = 101.0 is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
     (Segment(60), -math.inf, 'charge_to_percentage = -inf is invalid: must be in [0, 100] % (0 or NaN: no charge)'),
+    # segments given to predict() itself are checked as Predict.srv's arrays are (plan_from_arrays); before, a
+    # negative or NaN current and a negative or NaN duration were taken as they were, and an infinite one hung
+    (Segment(60, current_a=-1.0), NAN, 'current_a[0] = -1.0 is invalid: must be a number of amperes >= 0 (a load)'),
+    (Segment(60, current_a=NAN), NAN, 'current_a[0] = nan is invalid: must be a number of amperes >= 0 (a load)'),
+    (Segment(-60), NAN, 'duration_s[0] = -60 is invalid: must be a number of seconds >= 0'),
+    (Segment(NAN), NAN, 'duration_s[0] = nan is invalid: must be a number of seconds >= 0'),
+    (Segment(math.inf), NAN, 'duration_s[0] = inf is invalid: must be a number of seconds >= 0'),
+    (Segment(MAX_PLAN_S + 1.0), NAN, 'duration_s totals 604801 s, which is invalid: a plan is at most 604800 s (7 days)'),
 ])
 def test_loads_beyond_the_pack_and_bad_levels_are_refused(segment, charge_to, message):
     with pytest.raises(PredictionError) as error:
@@ -418,3 +426,16 @@ def test_cli_charge_with_a_learning_gauge_goes_on_to_the_gauges_own_end_of_charg
     assert terminated < float(rows[-1]['time']) <= terminated + 90.0   # Part 9: 100 % at most 90 s after it
     assert all(float(row['gauge_soc']) <= 0.99 for row in rows[:-1])
     assert 'to Full in %.0f s' % terminated in result.stderr and 'then 100.0 %' in result.stderr, result.stderr
+
+
+def test_a_pack_of_groups_filled_below_the_cv_onset_is_full_when_its_fullest_group_fills():
+    """lg_hg2_7s4p_aged charged at 0.25 A: its fullest group fills (SOC 1) with the mean group's voltage below
+    the CV onset, so the steps were CC's 600 s and Full came at a step's end: 15000 s from 90 % against 14775 s
+    in 1 s steps. Now no charging step goes past the moment the pack fills: within a CV step."""
+    params = replace(preset('lg_hg2_7s4p_aged'), charge_current_a=0.25, gauge=None)
+    result = predict(make_model(params, 0.98), [], until_full=True)
+    model, fine_s = make_model(params, 0.98, Mode.CHARGE), 0.0
+    while model.status is not Status.FULL:
+        model.step(1.0)
+        fine_s += 1.0
+    assert abs(result.charge_time_s - fine_s) <= 5.0, (result.charge_time_s, fine_s)

@@ -139,6 +139,11 @@ def plan_from_arrays(duration_s=(), current_a=(), power_w=(), speed_mps=(), turn
         if not (all_floats and _quick_valid(name, values)):
             _check_each(name, values)
         floats.append(values if all_floats else [float(v) for v in values])
+    _check_total(duration_s)
+    return tuple(map(Segment, *floats))
+
+
+def _check_total(duration_s):
     try:
         total_s = math.fsum(duration_s)
     except OverflowError:
@@ -146,7 +151,17 @@ def plan_from_arrays(duration_s=(), current_a=(), power_w=(), speed_mps=(), turn
     if total_s > MAX_PLAN_S:
         raise PredictionError('duration_s totals %s s, which is invalid: a plan is at most %s s (7 days)'
                               % (_exact(total_s), _exact(MAX_PLAN_S)))
-    return tuple(map(Segment, *floats))
+
+
+def _check_segments(segments):
+    """Raise PredictionError naming the first bad value of ``segments`` given to predict() itself, by the rules
+    of Predict.srv's arrays (plan_from_arrays)."""
+    if not segments:
+        return
+    for name, values in zip(FIELDS, zip(*segments)):
+        if not (set(map(type, values)) <= {float, int} and _quick_valid(name, values)):
+            _check_each(name, values)
+    _check_total(segment.duration_s for segment in segments)
 
 
 #: each array's rule: a test of one value, and what is allowed
@@ -191,6 +206,7 @@ def check_plan(model, segments, charge_to_percentage=math.nan):
     if not (math.isnan(charge_to_percentage) or 0.0 <= charge_to_percentage <= 100.0):
         raise PredictionError('charge_to_percentage = %r is invalid: must be in [0, 100] %% (0 or NaN: no charge)'
                               % (charge_to_percentage,))
+    _check_segments(segments)
     params = model.params
     base_current_a, limit_a = params.load_current_a, params.max_discharge_current_a
     others_w = params.load_power_w + model.extra_power_w
@@ -435,7 +451,11 @@ class _Run:
         if model.current_a <= 0.0:   # no current (over-temperature): wait for the pack to cool
             return CURRENT_STEP_S
         step_s = CC_STEP_CHARGE * model.capacity_ah * 3600.0 / model.current_a
-        return min(max(step_s, CV_STEP_S), CURRENT_STEP_S)
+        # no further than the pack fills (SOC 1: a pack of groups' fullest group, which at a low current fills
+        # below the CV onset): its Full found to within a CV step, not at a long step's end
+        fills_s = (1.0 - model.state_of_charge) * model.capacity_ah * 3600.0 / (
+            model.params.coulombic_efficiency * model.current_a)
+        return min(max(min(step_s, fills_s), CV_STEP_S), CURRENT_STEP_S)
 
     def _reached(self, target_percentage):
         """The charge ends at the level the robot reads (the gauge's), or at Full as the robot reads it (a

@@ -86,6 +86,7 @@ def fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, cha
     result = {}
     if len(currents) < 10:
         kept['charge_current_a'] = 'no charge in the logs: the preset\'s C-rate at the fitted capacity'
+        kept['cell_charge_voltage_v'] = 'no charge in the logs: the preset\'s, within the fitted OCV table'
         result['charge_current_a'] = float('%.4g' % (p.charge_current_a / p.design_capacity_ah
                                                      * changes['cell_capacity_ah'] * cells_parallel))
         return result
@@ -100,12 +101,15 @@ def fit_charger(logs, masks, cells_series, cells_parallel, chemistry_params, cha
     if len(tapering) >= 5 and top > 0:
         # its highest voltage, within what the model takes (parameter_rules: at most CHARGE_VOLTAGE_ABOVE_FULL_V
         # above the OCV table's top)
-        limit = math.floor(1e4 * min(top, changes['ocv_voltage_v'][-1] + CHARGE_VOLTAGE_ABOVE_FULL_V)) / 1e4
+        most = changes['ocv_voltage_v'][-1] + CHARGE_VOLTAGE_ABOVE_FULL_V
+        limit = math.floor(1e4 * min(top, most)) / 1e4
         if limit > changes['cell_cutoff_voltage_v']:
             result['cell_charge_voltage_v'] = limit
+            highest = 'its highest cell voltage' if top <= most else (
+                'its highest cell voltage %.4g V, cut to %g V above the OCV table\'s top, the most the model takes'
+                % (top, CHARGE_VOLTAGE_ABOVE_FULL_V))
             fitted['cell_charge_voltage_v'] = Fitted(result['cell_charge_voltage_v'], 'the charge\'s constant '
-                                                     'voltage (its highest cell voltage, %d samples tapering)'
-                                                     % len(tapering))
+                                                     'voltage (%s, %d samples tapering)' % (highest, len(tapering)))
         end = float(np.min(tapering))
         if 0 < end < current:
             result['termination_current_a'] = float('%.4g' % end)
