@@ -6,6 +6,7 @@ test that measures latencies), the other runs beside anything. Latencies are com
 measured in the same run.
 
 Each process runs in a namespace of its own; every wait has a bound."""
+import contextlib
 import json
 import math
 import os
@@ -27,6 +28,7 @@ from std_msgs.msg import Bool
 
 from battery_simulator.action import BatterySim
 from battery_simulator.core.prediction import MAX_SEGMENTS
+from battery_simulator.core.state_file import fleet_save_period_s
 from battery_simulator.srv import Predict
 from ros2_probe import LATCHED, NodeProcess, Probe
 from test_hardening import CHARGING, started, stop_all, wait_until
@@ -238,20 +240,33 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
         lateness_s = max(at - stamp(msg) for at, msg in seen) - min(at - stamp(msg) for at, msg in seen)
         assert rate > 0.0, 'not draining'
         killed_at = stamp(last) + 0.9   # just before the next update
-        time.sleep(max(0.0, killed_at - time.time()))
+        # the host's writes of its state file until the kill (its saves, every 0.067 s at x300): the other reference
+        # measured in this run, how late this machine lets the host save (a fresh-clone run with two CPU hogs
+        # resumed 1.39 points above the level at the kill: the last save was 0.3 s old)
+        state_file, writes = tmp_path / 'fleet.json', set()
+        while time.time() < killed_at:
+            with contextlib.suppress(FileNotFoundError):
+                writes.add(state_file.stat().st_mtime_ns / 1e9)
+            time.sleep(0.005)
         killed_at = time.time()
         fleet.process.kill()
         level = 100.0 * (last.percentage - rate * (killed_at - stamp(last)))
+        with contextlib.suppress(FileNotFoundError):
+            writes.add(state_file.stat().st_mtime_ns / 1e9)
     finally:
         fleet.stop(signal.SIGKILL)
+    # saved between updates (on main it was only at each update, once in that 0.9 s), and how old the last save was
+    assert len(writes) >= 3, 'the state file was written %d times in the 0.9 s before the kill' % len(writes)
+    save_late_s = max(0.0, killed_at - max(writes) - fleet_save_period_s(300.0))
     again = NodeProcess('battery_fleet', *args)
     try:
         assert again.wait_for_output('resumed from', 20.0), again.output()
         line = next(line for line in again.output().splitlines() if 'resumed from' in line)
         resumed = float(line.split('resumed from')[1].split(':')[1].split('%')[0])
-        allowed = 1.0 + 100.0 * rate * lateness_s
+        allowed = 1.0 + 100.0 * rate * max(lateness_s, save_late_s)
         assert abs(resumed - level) <= allowed, 'killed at %.2f %%, resumed at %.1f %% (allowed %.2f: deliveries up to ' \
-            '%.3f s late here):\n%s' % (level, resumed, allowed, lateness_s, line)
+            '%.3f s late here, the last save %.3f s later than its period):\n%s' % (
+                level, resumed, allowed, lateness_s, save_late_s, line)
     finally:
         assert again.stop() == 0, again.output()
 
