@@ -16,6 +16,9 @@ from battery_simulator.srv import SetState
 
 from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
+#: a server this test starts itself, and its client, wait this long for it: on a busy machine its start took more
+#: than the client's default 10 s (a fresh-clone run with two CPU hogs: no goal, 'timed out ... the goal running')
+SERVER_START_S = 60.0
 CLIENT = node_command('battery_sim_client.py')
 ROSRUN_CLIENT = ['rosrun', 'battery_simulator', 'battery_sim_client.py']   # as a user types it
 NAN = float('nan')
@@ -112,12 +115,12 @@ class TestClient(unittest.TestCase):
 
     def wait_goal_running(self, logged, namespace):
         self.log.wait_new(logged, lambda m: m.msg.startswith('goal: charge') and m.name.startswith('/' + namespace),
-                          30.0, 'the goal running on /%s' % namespace)
+                          SERVER_START_S + 10.0, 'the goal running on /%s' % namespace)
 
     def test_sigterm_cancels_the_goal_like_ctrl_c(self):
         self.start_server('term')
         logged = self.log.count()
-        client = self.start_client('term', '1')
+        client = self.start_client('term', '1', '--server-timeout', str(SERVER_START_S))
         self.wait_goal_running(logged, 'term')
         client.send_signal(signal.SIGTERM)
         out, err = client.communicate(timeout=30.0)
@@ -129,7 +132,7 @@ class TestClient(unittest.TestCase):
     def test_a_server_that_dies_mid_goal_ends_the_client_with_1(self):
         server = self.start_server('lost')
         logged = self.log.count()
-        client = self.start_client('lost', '1')
+        client = self.start_client('lost', '1', '--server-timeout', str(SERVER_START_S))
         self.wait_goal_running(logged, 'lost')
         os.killpg(server.pid, signal.SIGKILL)
         killed_at = time.monotonic()
