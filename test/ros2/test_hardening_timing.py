@@ -250,7 +250,9 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
             time.sleep(0.005)
         killed_at = time.time()
         fleet.process.kill()
+        killed_by = time.time()   # the kill fell between the two (a busy machine put 0.25 s there: 1.1 points)
         level = 100.0 * (last.percentage - rate * (killed_at - stamp(last)))
+        level_after = 100.0 * (last.percentage - rate * (killed_by - stamp(last)))
         with contextlib.suppress(FileNotFoundError):
             writes.add(state_file.stat().st_mtime_ns / 1e9)
     finally:
@@ -264,9 +266,9 @@ def test_a_fleet_killed_at_x300_resumes_within_1_percent(probe, tmp_path):
         line = next(line for line in again.output().splitlines() if 'resumed from' in line)
         resumed = float(line.split('resumed from')[1].split(':')[1].split('%')[0])
         allowed = 1.0 + 100.0 * rate * max(lateness_s, save_late_s)
-        assert abs(resumed - level) <= allowed, 'killed at %.2f %%, resumed at %.1f %% (allowed %.2f: deliveries up to ' \
-            '%.3f s late here, the last save %.3f s later than its period):\n%s' % (
-                level, resumed, allowed, lateness_s, save_late_s, line)
+        assert level_after - allowed <= resumed <= level + allowed, 'killed at %.2f-%.2f %%, resumed at %.1f %% ' \
+            '(allowed %.2f: deliveries up to %.3f s late here, the last save %.3f s later than its period):\n%s' % (
+                level_after, level, resumed, allowed, lateness_s, save_late_s, line)
     finally:
         assert again.stop() == 0, again.output()
 
