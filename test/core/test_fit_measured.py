@@ -58,14 +58,14 @@ def test_usual_pack_layout_only_where_the_ocv_level_cannot_tell():
 def test_bmw_i3_series_count_96_with_the_runner_up_said(name, fitted_best):
     """The i3's cells sit up to 5 % above LG HG2's OCV at the BMS's percentage (their own chemistry): the level
     alone put B06 at 97 cells and B13 (a drive at 56 % SOC) at 99, 96 at 38 times the pack RMSE. The
-    count within the cells' level spread that packs are built of is taken, the best fit named in a warning."""
-    from battery_simulator.cli.fit import DETECTED
+    count within the cells' level spread that packs are built of is taken, the best fit named in a warning.
+    Among LG HG2 and LFP: the i3's own cell (bmw_i3_60ah_cell, fitted to these drives) fits B06's level at 96."""
     from battery_simulator.core.config_files import preset
     from battery_simulator.core.fit.conventions import prepare, split_at_gaps
     from battery_simulator.core.fit.known import fit_mask, known_charge
     from battery_simulator.core.fit.log_reader import read_log
     from battery_simulator.core.fit.series import series_count
-    candidates = [(name, preset(name)) for name in DETECTED]
+    candidates = [(name, preset(name)) for name in ('lg_hg2_cell', 'a123_lfp_cell')]
     logs = split_at_gaps(prepare(read_log(os.path.join(DATA, name)), candidates[0][1].cmd_vel_timeout_s))
     masks = [fit_mask(log, 0.4) for log in logs]
     warnings = []
@@ -73,18 +73,51 @@ def test_bmw_i3_series_count_96_with_the_runner_up_said(name, fitted_best):
                                             lambda *_: None, warnings)
     assert (count, chemistry, moved) == (96, 'lg_hg2_cell', True), why
     assert any('best fit of the OCV level, %d cells' % fitted_best in w for w in warnings), warnings
+    if name == 'bmw_i3_TripB06.csv.gz':
+        candidates.append(('bmw_i3_60ah_cell', preset('bmw_i3_60ah_cell')))
+        count, why, chemistry, _, moved = series_count(logs, masks, candidates, known_charge(logs, masks), None,
+                                                       None, lambda *_: None, [])
+        assert (count, chemistry, moved) == (96, 'bmw_i3_60ah_cell', False), why
+
+
+def test_a_drive_the_i3_cell_preset_never_saw_is_detected_and_predicted(tmp_path):
+    """bmw_i3_60ah_cell is fitted to the 14 drives in shared/; A25 (65-74 %, 20 degC) is none of them. Without
+    --chemistry the i3's cell fits the fitted part's level best at the count it takes: 96S1P, held out 4.5 mV
+    per cell. Over the LG HG2's shape (before the preset, and with --chemistry li-ion) 22.3."""
+    path = os.path.join(DATA, 'bmw_i3_TripA25.csv.gz')
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=96)
+    assert 'fitted over the bmw_i3_60ah_cell preset: 96 cells in series x 1 in parallel' in figures['report'], \
+        figures['report']
+    assert figures['held_mv'] <= 10.0, figures['held_mv']
+    (tmp_path / 'hg2').mkdir()
+    over_hg2 = fit_logs.fit_and_score(path, str(tmp_path / 'hg2'), cells=96, extra=['--chemistry', 'li-ion'])
+    assert over_hg2['held_mv'] > 15.0 and figures['held_mv'] < 0.5 * over_hg2['held_mv'], (figures['held_mv'],
+                                                                                            over_hg2['held_mv'])
+
+
+def test_a_cell_larger_than_the_first_is_tried_only_in_a_pack_that_holds_it():
+    """A pack holds no less than one of its cells: the i3's 62 Ah cell is no candidate for a log whose
+    capacity is unknown or smaller (LG HG2's C/20 test: 2.85 Ah), and one for the i3's 61 Ah."""
+    from battery_simulator.core.config_files import preset
+    from battery_simulator.core.fit.series import _holds_a_cell
+    first, large = preset('lg_hg2_cell'), preset('bmw_i3_60ah_cell')
+    assert _holds_a_cell(preset('a123_lfp_cell'), first, None)
+    assert not _holds_a_cell(large, first, None) and not _holds_a_cell(large, first, 2.85)
+    assert not _holds_a_cell(large, first, 0.85 * large.cell_capacity_ah)
+    assert _holds_a_cell(large, first, 61.1)
 
 
 def test_bmw_i3_at_its_usual_count_reads_the_ocv_level_from_the_percentage(tmp_path):
     """B13 (56-57 % by the BMS): 96 cells taken where the preset's level fits 99 best; at 96 the preset's
     level is 190 mV per cell low there, so the offset is read from the logged percentage: held out 8.2 mV
-    per cell (99 cells before, 8.6 per true cell; at 96 without the offset the model sat 0.1-0.2 V low)."""
+    per cell (99 cells before, 8.6 per true cell; at 96 without the offset the model sat 0.1-0.2 V low). Over
+    LG HG2's shape (--chemistry li-ion): without it the i3's own cell is taken, whose level fits."""
     path = os.path.join(DATA, 'bmw_i3_TripB13.csv.gz')
     data = _columns(path)
     charge = np.concatenate([[0.0], np.cumsum(data['current'][:-1] * np.diff(data['time']))]) / 3600.0
     known = np.isfinite(data['percentage'])
     bms_capacity = np.polyfit(charge[known], data['percentage'][known], 1)[0] ** -1
-    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=96)
+    figures = fit_logs.fit_and_score(path, str(tmp_path), cells=96, extra=['--chemistry', 'li-ion'])
     assert figures['cells_series'] == 96, figures['report']
     assert 'voltage at the SOC the logged percentage gives' in figures['report'], figures['report']
     assert figures['capacity_ah'] == pytest.approx(bms_capacity, rel=0.05)

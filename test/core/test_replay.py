@@ -194,7 +194,7 @@ def test_usage_errors_are_one_line_naming_the_problem(tmp_path):
 def test_list_presets_needs_no_profile():
     result = run_cli('--list-presets')
     assert result.returncode == 0 and result.stdout == '\n'.join(preset_names()) + '\n'
-    assert result.stdout.startswith('a123_lfp_cell\nkobuki_4s2p\nlg_hg2_3s1p\n')
+    assert result.stdout.startswith('a123_lfp_cell\nbmw_i3_60ah_cell\nkobuki_4s2p\nlg_hg2_3s1p\n')
 
 
 @pytest.mark.parametrize('soc, first_row', [

@@ -31,7 +31,7 @@ PROG = 'battery_fit'
 DEFAULT_CHEMISTRY = 'lg_hg2_cell'
 #: --chemistry's short names; without --chemistry these are tried and the logs decide
 CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell', 'li-ion': 'lg_hg2_cell', 'nmc': 'lg_hg2_cell', 'lfp': 'a123_lfp_cell'}
-DETECTED = ('lg_hg2_cell', 'a123_lfp_cell')
+DETECTED = ('lg_hg2_cell', 'a123_lfp_cell', 'bmw_i3_60ah_cell')
 BAR_WIDTH = 30
 #: a fit worse than this (per cell, on the fitted part) is refused: the logs are not what the model is
 MAX_RMSE_PER_CELL_V = 0.2

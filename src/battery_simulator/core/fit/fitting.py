@@ -96,7 +96,8 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     known = pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted)
     if len(candidates) > 1:
         fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape fits the fitted part best '
-                                     'of %s (another than the first only where %.3g times better)'
+                                     'of %s (another chemistry than the first\'s only where %.3g times better; '
+                                     'a cell larger than the first\'s only in a pack of known capacity that holds it)'
                                      % (chemistry_name, ', '.join(name for name, _ in candidates),
                                         1.0 / CHEMISTRY_CLEAR))
     rests = any(log_has_rest(log, mask) for log, mask in zip(logs, masks))

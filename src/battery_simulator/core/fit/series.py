@@ -24,6 +24,10 @@ FULL_FIT_CANDIDATES = 6
 #: i3 winter drive over 15 % of SOC: LFP's shape at 116 cells 1.9 times better than Li-ion's at 97; the A123
 #: LFP cell's DST test: LFP 8 times better)
 CHEMISTRY_CLEAR = 1.0 / 3.0
+#: a candidate whose one cell holds more than the first's is tried only where the pack's capacity is known
+#: (the logged percentage, or a full charge and a cut-off) and at least this fraction of that cell's: a pack
+#: holds no less than one of its cells (the BMW i3's 62 Ah cell is no candidate for a robot's 5.6 Ah 4S2P pack)
+LARGE_CELL_FILL = 0.9
 #: The level of the OCV is what tells the counts apart, and it is a cell's own: at the same state of charge
 #: Li-ion cells differ in OCV by up to this fraction of their voltage. Measured: LG HG2 (the preset), the LG M50
 #: (NMC811, Chen et al. 2020, doi:10.1149/1945-7111/ab9050) and Samsung SDI's 94 Ah NMC111 cell (the OCV fit of
@@ -54,6 +58,8 @@ def series_count(logs, masks, candidates, known, cells_series, why, progress, wa
     short_known = known.thinned([max(1, len(log.time_s) // SEARCH_SAMPLES) for log in logs])
     scores, tried = [], []
     for name, params in candidates:
+        if not _holds_a_cell(params, candidates[0][1], known.capacity_ah):
+            continue
         chemistry = Chemistry(params)
         if cells_series:
             counts = [cells_series]
@@ -86,22 +92,25 @@ def series_count(logs, masks, candidates, known, cells_series, why, progress, wa
         raise FitError('no series count of %s cells fits the voltage range %.2f-%.2f V'
                        % (' or '.join(name for name, _ in candidates), low, high))
     scores.sort(key=lambda item: item[0])
-    firsts = [item for item in scores if item[2] == candidates[0][0]]
-    if firsts and firsts[0] is not scores[0] and not scores[0][0] < CHEMISTRY_CLEAR * firsts[0][0]:
-        scores.remove(firsts[0])   # another chemistry only where it fits clearly better than the first
-        scores.insert(0, firsts[0])
-    score, best, name, params = scores[0]
-    same = {item[1]: item[0] for item in scores if item[2] == name}
-    fitted_best = best
-    best = usual_count(sorted(same), fitted_best)
-    score = same[best]
+    taken = {}   # per chemistry: its score at the count it would take (the usual layout near its best fit)
+    for _, count, name, params in scores:
+        if name not in taken:
+            same = {item[1]: item[0] for item in scores if item[2] == name}
+            usual = usual_count(sorted(same), count)
+            taken[name] = (same[usual], usual, count, same, params)
+    first = candidates[0][0]
+    for name in sorted(taken, key=lambda n: taken[n][0]):   # another chemistry than the first's only where
+        score, best, fitted_best, same, params = taken[name]    # it fits clearly better
+        if first not in taken or taken[first][4].chemistry == params.chemistry \
+                or score < CHEMISTRY_CLEAR * taken[first][0]:
+            break
     bests = {}
     for item in scores:
         bests.setdefault(item[2], item)
     tried = ['%s (best %d: %.3g V)' % (text, bests[text.split()[0]][1], bests[text.split()[0]][0])
              if text.split()[0] in bests else text for text in tried]
     if why is None:
-        rivals = [item for item in scores if item[0] < SERIES_CLEAR * score and item[1] != best]
+        rivals = [item for item in scores if item[2] == name and item[0] < SERIES_CLEAR * score and item[1] != best]
         if best != fitted_best:
             band = [n for n in sorted(same) if abs(n - fitted_best) <= LEVEL_SPREAD * fitted_best]
             warnings.append('cells in series: %d taken, the usual pack layout among %s (within %.0f %% of the '
@@ -118,6 +127,14 @@ def series_count(logs, masks, candidates, known, cells_series, why, progress, wa
             why += '; %d taken: the usual pack layout within %.0f %% of %d (the level of an unknown cell\'s OCV ' \
                    'does not tell them apart)' % (best, 100 * LEVEL_SPREAD, fitted_best)
     return best, why, name, params, best != fitted_best
+
+
+def _holds_a_cell(params, first, capacity_ah):
+    """Whether a candidate's cell can be in the pack: no larger than the first candidate's, or the pack's
+    known capacity holds at least LARGE_CELL_FILL of it."""
+    if params.cell_capacity_ah <= first.cell_capacity_ah:
+        return True
+    return capacity_ah is not None and capacity_ah >= LARGE_CELL_FILL * params.cell_capacity_ah
 
 
 def usual_count(counts, best):
