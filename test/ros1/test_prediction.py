@@ -144,11 +144,36 @@ class TestPrediction(unittest.TestCase):
             self.pace_until(elapsed_s, start)
         self.motion.set(0.0, 0.0)
         real = self.percentage_at(start + elapsed_s / self.time_scale)
-        rospy.loginfo('plan: predicted %.2f %%, real %.2f %% (error %.2f pp); %s', predicted.end_percentage, real,
-                      real - predicted.end_percentage, predicted.message)
+        late = self.drain_of_late_changes(start, [p[0] for p in plan])
+        rospy.loginfo('plan: predicted %.2f %%, real %.2f %% (error %.2f pp; %.2f pp of it the test\'s own late '
+                      'load changes); %s', predicted.end_percentage, real, real - predicted.end_percentage, -late,
+                      predicted.message)
         self.assertTrue(predicted.feasible and math.isnan(predicted.cut_off_at_s), predicted.message)
         self.assertLess(predicted.end_percentage, 80.0 - 30.0, 'the plan takes a good part of the pack')
-        self.assertAlmostEqual(real, predicted.end_percentage, delta=1.0)
+        self.assertLess(abs(late), 3.0, 'the plan\'s load changes came far from their moments')
+        self.assertAlmostEqual(real, predicted.end_percentage - late, delta=1.0)
+
+    def drain_of_late_changes(self, start, durations_s):
+        """Points of charge the battery drew beyond the plan because this test changed the load late (a busy
+        machine: at x400 a point goes in 0.2 s): the server's recorded load_power_w against each phase's own
+        (its median over the phase's middle half), over the plan's moments, at the recorded voltage and the
+        gauge's capacity."""
+        end = start + sum(durations_s) / self.time_scale
+        states = [m for m in self.state.since(0) if start <= m.battery.header.stamp.to_sec() <= end]
+        bounds = [start + sum(durations_s[:k]) / self.time_scale for k in range(len(durations_s) + 1)]
+        planned = []
+        for begin, finish in zip(bounds, bounds[1:]):
+            quarter = 0.25 * (finish - begin)
+            middle = [m.load_power_w for m in states if begin + quarter <= m.battery.header.stamp.to_sec()
+                      <= finish - quarter]
+            planned.append(sorted(middle)[len(middle) // 2])
+        extra_ah = 0.0
+        for state, following in zip(states, states[1:]):
+            t = state.battery.header.stamp.to_sec()
+            phase = max(k for k in range(len(planned)) if bounds[k] <= t)
+            span_s = (following.battery.header.stamp.to_sec() - t) * self.time_scale
+            extra_ah += (state.load_power_w - planned[phase]) / state.battery.voltage * span_s / 3600.0
+        return 100.0 * extra_ah / states[-1].gauge_full_capacity_ah
 
     def test_the_cut_off_comes_when_predicted(self):
         self.start_at(40.0)
