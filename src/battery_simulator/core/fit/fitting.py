@@ -95,9 +95,9 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     fitted['cells_series'] = Fitted(cells_series, why)
     known = pinned_at_dynamic_cutoff(known, chemistry_params, cells_series, fitted)
     if len(candidates) > 1:
-        fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape fits the fitted part best '
-                                     'of %s (another chemistry than the first\'s only where %.3g times better; '
-                                     'a cell larger than the first\'s only in a pack of known capacity that holds it)'
+        fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape, taken among %s '
+                                     '(the largest Li-ion cell a pack of known capacity holds first, another '
+                                     'only where %.3g times better)'
                                      % (chemistry_name, ', '.join(name for name, _ in candidates),
                                         1.0 / CHEMISTRY_CLEAR))
     rests = any(log_has_rest(log, mask) for log, mask in zip(logs, masks))
