@@ -26,7 +26,7 @@ from battery_simulator.core.fit.known import (check_capacity, check_units, cutof
                                                interpolated, known_charge, log_has_rest, pinned_at_dynamic_cutoff,
                                                preset_temperature)
 from battery_simulator.core.fit.loads_charger import current_limits, fit_charger, fit_loads
-from battery_simulator.core.fit.ocv_curve import learn_curve
+from battery_simulator.core.fit.ocv_curve import LEARN_MIN_SOC_SPAN, learn_curve
 from battery_simulator.core.fit.series import CHEMISTRY_CLEAR, series_count
 from battery_simulator.core.parameter_rules import ParameterError
 
@@ -36,7 +36,8 @@ DEFAULT_HOLDOUT = 0.25
 REPLAY_CHECK_SAMPLES = 20000
 #: a stretched SOC scale of the preset's OCV (its slope within these bounds) is fitted on the first
 #: REMAP_TRAIN of each fitted part and taken where it fits the fitted part REMAP_GAIN better and predicts the
-#: rest of the fitted part better than the preset's own scale
+#: rest of the fitted part better than the preset's own scale (where the fitted parts cover as much SOC as a
+#: learned curve needs, LEARN_MIN_SOC_SPAN)
 REMAP_GAIN, REMAP_SLOPE, REMAP_TRAIN = 0.85, (0.3, 3.0), 0.7
 #: a stretched scale holds down to this SOC (the logged percentage's), below it it returns to the preset's SOC 0
 REMAP_JOIN = 0.05
@@ -280,6 +281,9 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
     the cells' charge, and cells of one chemistry differ in slope), where that fits the fitted part at least
     REMAP_GAIN better; else None."""
     from scipy.optimize import least_squares
+    socs = np.concatenate([piece[1][mask] for piece, mask in zip(electrical.pieces, masks)])
+    if float(np.max(socs) - np.min(socs)) < LEARN_MIN_SOC_SPAN:   # a slope is not told over less (the BMW i3's
+        return None   # A14, 80-83 %: 0.34 + 0.56 x, and its next drive at 63-75 % 32.7 mV per cell off)
     names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
 
     def system(z, part):
