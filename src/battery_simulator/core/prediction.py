@@ -412,20 +412,21 @@ class _Run:
         model.set_mode(Mode.CHARGE)
         start_s = self.time_s
         full_at_s = math.inf   # when the charger ended the charge
+
+        def chargers_time():   # until Full: the charger's Full, wherever the rows (a learning gauge's) end
+            return (full_at_s if full_at_s < math.inf else self.time_s) - start_s
         while self.time_s - start_s < MAX_CHARGE_S:
             model.step(0.0)   # the current held over the next step (the CV taper's end is found here)
             self._seen()
             if self._reached(target_percentage):
                 if _reads_full(model):
                     self._observe(self.time_s, model)   # the moment it turned FULL
-                if until_full:   # the charger's Full; the rows went on to the gauge's
-                    return (full_at_s if full_at_s < math.inf else self.time_s) - start_s
-                return self.time_s - start_s
+                return chargers_time() if until_full else self.time_s - start_s
             if model.charger_fault:
                 return math.inf
             if model.status is Status.FULL and self.time_s - full_at_s > GAUGE_FULL_WAIT_S:
                 # the charger has ended, the gauge never will: the robot never reads it (until Full: the charger's)
-                return full_at_s - start_s if until_full else math.inf
+                return chargers_time() if until_full else math.inf
             # the CV taper, and a gauge's own end of charge after the charger's (a learning gauge's windows)
             near_cv = model.status is Status.FULL or model.status is Status.CHARGING and (
                 model.current_a < 0.999 * params.charge_current_a
@@ -438,7 +439,7 @@ class _Run:
                 full_at_s = self.time_s
             if self._reached(target_percentage):
                 if until_full:
-                    return full_at_s - start_s
+                    return chargers_time()
                 after = _level(model)
                 if _reads_full(model) or after <= before:   # the taper (or the gauge's) ended within this step
                     return self.time_s - start_s
