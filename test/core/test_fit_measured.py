@@ -80,6 +80,25 @@ def test_bmw_i3_series_count_96_with_the_runner_up_said(name, fitted_best):
         assert (count, chemistry, moved) == (96, 'bmw_i3_60ah_cell', False), why
 
 
+def test_another_cell_of_the_first_s_chemistry_only_where_the_first_s_level_is_off_beyond_the_bms_spread():
+    """B18 (a winter drive at 3-6 degC, 83-68 % by the BMS; none of the preset's 14): the i3's own cell reads
+    22.7 mV per cell off the percentage's level, LG HG2 7.1, over three times better. A car's own cell is off
+    by that much from drive to drive (median 10.7 mV, up to 48 on its 60 drives), so the i3's cell is kept:
+    LG HG2 taken held out 28.9 mV per cell, the i3's 6.6. LFP's rule (three times better) is unchanged."""
+    from battery_simulator.core.config_files import preset
+    from battery_simulator.core.fit.conventions import prepare, split_at_gaps
+    from battery_simulator.core.fit.known import fit_mask, known_charge
+    from battery_simulator.core.fit.log_reader import read_log
+    from battery_simulator.core.fit.series import series_count
+    candidates = [(name, preset(name)) for name in ('lg_hg2_cell', 'a123_lfp_cell', 'bmw_i3_60ah_cell')]
+    logs = split_at_gaps(prepare(read_log(os.path.join(DATA, 'bmw_i3_TripB18.csv.gz')),
+                                 candidates[0][1].cmd_vel_timeout_s))
+    masks = [fit_mask(log, 0.4) for log in logs]
+    count, why, chemistry, _, _ = series_count(logs, masks, candidates, known_charge(logs, masks), None, None,
+                                               lambda *_: None, [])
+    assert (count, chemistry) == (96, 'bmw_i3_60ah_cell'), why
+
+
 def test_a_drive_the_i3_cell_preset_never_saw_is_detected_and_predicted(tmp_path):
     """bmw_i3_60ah_cell is fitted to the 14 drives in shared/; A25 (65-74 %, 20 degC) is none of them. Without
     --chemistry the i3's cell fits the fitted part's level best at the count it takes: 96S1P, held out 4.5 mV

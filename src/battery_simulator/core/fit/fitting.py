@@ -27,7 +27,7 @@ from battery_simulator.core.fit.known import (check_capacity, check_units, cutof
                                                preset_temperature)
 from battery_simulator.core.fit.loads_charger import current_limits, fit_charger, fit_loads
 from battery_simulator.core.fit.ocv_curve import LEARN_MIN_SOC_SPAN, learn_curve
-from battery_simulator.core.fit.series import CHEMISTRY_CLEAR, series_count
+from battery_simulator.core.fit.series import CHEMISTRY_CLEAR, LEVEL_NOISE_V, series_count
 from battery_simulator.core.parameter_rules import ParameterError
 
 #: the held-out part of each log (its last fraction), by default
@@ -98,9 +98,10 @@ def fit(logs, chemistry_params, chemistry_name, cells_series=None, holdout=DEFAU
     if len(candidates) > 1:
         fitted['chemistry'] = Fitted(chemistry_params.chemistry, 'the %s preset\'s shape, taken among %s '
                                      '(the largest Li-ion cell a pack of known capacity holds first, another '
-                                     'only where %.3g times better)'
+                                     'only where %.3g times better, and one of its chemistry only where the '
+                                     'first\'s level is off by more than %.0f mV per cell)'
                                      % (chemistry_name, ', '.join(name for name, _ in candidates),
-                                        1.0 / CHEMISTRY_CLEAR))
+                                        1.0 / CHEMISTRY_CLEAR, 1000 * LEVEL_NOISE_V))
     rests = any(log_has_rest(log, mask) for log, mask in zip(logs, masks))
     # the OCV's level (an offset to the preset's shape) is read from a rest, or from a drive where the logged
     # percentage gives the SOC (the BMS pins the SOC, the current's steps the resistances). Where the count
