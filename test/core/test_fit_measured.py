@@ -102,7 +102,8 @@ def test_another_cell_of_the_first_s_chemistry_only_where_the_first_s_level_is_o
 def test_a_drive_the_i3_cell_preset_never_saw_is_detected_and_predicted(tmp_path):
     """bmw_i3_60ah_cell is fitted to the 14 drives in shared/; A25 (65-74 %, 20 degC) is none of them. Without
     --chemistry the i3's cell fits the fitted part's level best at the count it takes: 96S1P, held out 4.5 mV
-    per cell. Over the LG HG2's shape (before the preset, and with --chemistry li-ion) 22.3."""
+    per cell. Over the LG HG2's shape (before the preset, and with --chemistry li-ion) 6.8 (22.3 while the slow
+    pair could be slower than the fitted part lasts)."""
     path = os.path.join(DATA, 'bmw_i3_TripA25.csv.gz')
     figures = fit_logs.fit_and_score(path, str(tmp_path), cells=96)
     assert 'fitted over the bmw_i3_60ah_cell preset: 96 cells in series x 1 in parallel' in figures['report'], \
@@ -110,8 +111,18 @@ def test_a_drive_the_i3_cell_preset_never_saw_is_detected_and_predicted(tmp_path
     assert figures['held_mv'] <= 10.0, figures['held_mv']
     (tmp_path / 'hg2').mkdir()
     over_hg2 = fit_logs.fit_and_score(path, str(tmp_path / 'hg2'), cells=96, extra=['--chemistry', 'li-ion'])
-    assert over_hg2['held_mv'] > 15.0 and figures['held_mv'] < 0.5 * over_hg2['held_mv'], (figures['held_mv'],
-                                                                                            over_hg2['held_mv'])
+    assert figures['held_mv'] < over_hg2['held_mv'], (figures['held_mv'], over_hg2['held_mv'])
+
+
+def test_a_slow_pair_is_no_slower_than_the_fitted_part_lasts(tmp_path):
+    """A22 (a summer drive at 87-76 % by the BMS; none of the preset's 14): over its 1103 s fitted the slow pair
+    went to tau1 6537 +- 1800 s with R1 13 times the preset's, an integrator of the charge standing in for the
+    OCV's slope, and held out 16.5 mV per cell. No longer than the fitted part lasts: 3.2 (the whole drive
+    fitted finds tau1 368 s)."""
+    from battery_simulator.core.config_files import load_yaml
+    figures = fit_logs.fit_and_score(os.path.join(DATA, 'bmw_i3_TripA22.csv.gz'), str(tmp_path), cells=96)
+    assert load_yaml(figures['config']).tau1_s <= 1103.0, figures['report']
+    assert figures['held_mv'] <= 6.0, figures['held_mv']
 
 
 def test_a_stretched_soc_scale_needs_the_span_a_learned_curve_needs(tmp_path):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 
 from battery_simulator.core.fit.circuit import hat_basis, regressors, state_of_charge
-from battery_simulator.core.fit.electrical import (TAU1_BOUNDS, TAU_FAST_BOUNDS, increasing, non_negative_lstsq,
+from battery_simulator.core.fit.electrical import (TAU_FAST_BOUNDS, tau1_bounds, increasing, non_negative_lstsq,
                                                     small_lstsq)
 from battery_simulator.core.fit.known import CHARGE_MIN_S, KNOWN_SPREAD, Known, runs
 
@@ -131,9 +131,10 @@ def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, know
         soc0 = known.soc0
     z0 = [math.log(electrical.tau1_s), math.log(electrical.tau_fast_s), capacity] + list(soc0)
     spread = KNOWN_SPREAD if known.capacity_ah is not None else math.log(3.0)   # else: the replay checks it
-    low_bounds = [math.log(TAU1_BOUNDS[0]), math.log(TAU_FAST_BOUNDS[0]), capacity - spread] + [
+    slowest = tau1_bounds(logs, masks)
+    low_bounds = [math.log(slowest[0]), math.log(TAU_FAST_BOUNDS[0]), capacity - spread] + [
         max(0.0, s - 0.02) if known.capacity_ah is not None else 0.0 for s in soc0]
-    high_bounds = [math.log(TAU1_BOUNDS[1]), math.log(TAU_FAST_BOUNDS[1]), capacity + spread] + [
+    high_bounds = [math.log(slowest[1]), math.log(TAU_FAST_BOUNDS[1]), capacity + spread] + [
         min(1.0, s + 0.02) if known.capacity_ah is not None else 1.0 for s in soc0]
     if with_efficiency:
         z0.append(min(p.coulombic_efficiency, EFFICIENCY_BOUNDS[1]))
