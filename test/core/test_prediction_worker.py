@@ -131,7 +131,7 @@ def test_a_robot_beyond_its_bound_gets_busy_after_a_short_wait_and_others_still_
     pool = pools(per_key=1, admit_s=0.1)
     model = BatteryModel(BIG_PACK, 1.0)
     long = in_thread(pool.run, 'robot0', job(model, LONG), 100_000)
-    wait_for(lambda: pool.jobs('robot0')[0] == 1, 5.0, 'the long job')
+    wait_for(lambda: pool.jobs('robot0')[0] == 1, 30.0, 'the long job')
     asked = time.monotonic()
     with pytest.raises(Busy) as error:
         pool.run('robot0', job(model, HOUR), 3600)
@@ -145,13 +145,13 @@ def test_the_total_bounds_answer_busy(pools):
     pool = pools(max_waiting=1, admit_s=0.05)
     model = BatteryModel(BIG_PACK, 1.0)
     in_thread(pool.run, 'robot0', job(model, LONG), 100_000)
-    wait_for(lambda: pool.jobs()[0] == 1, 5.0, 'the long job')
+    wait_for(lambda: pool.jobs()[0] == 1, 30.0, 'the long job')
     with pytest.raises(Busy, match='busy, try again: 1 predictions are waiting or running in this process '
                                    r'\(at most 1\)'):
         pool.run('robot1', job(model, HOUR), 3600)
     pool = pools(max_queued_segments=150_000, admit_s=0.05)
     in_thread(pool.run, 'robot0', job(model, LONG), 100_000)
-    wait_for(lambda: pool.jobs()[0] == 1, 5.0, 'the long job')
+    wait_for(lambda: pool.jobs()[0] == 1, 30.0, 'the long job')
     with pytest.raises(Busy, match='segments'):
         pool.run('robot1', job(model, LONG), 100_000)
 
@@ -160,7 +160,7 @@ def test_a_robot_s_flood_leaves_a_worker_to_the_others(pools):
     pool = pools()
     model = BatteryModel(BIG_PACK, 1.0)
     long = in_thread(pool.run, 'robot0', job(model, LONG), 100_000)
-    wait_for(lambda: pool.jobs()[1] == ['robot0'], 5.0, 'the long job running')
+    wait_for(lambda: pool.jobs()[1] == ['robot0'], 30.0, 'the long job running')
     more = [in_thread(pool.run, 'robot0', job(model, LONG), 100_000) for _ in range(2)]
     assert pool.run('robot1', job(BatteryModel(PACK, 0.9), HOUR), 3600).end_percentage > 0.0
     assert 'at' not in long and all('at' not in m for m in more), 'robot1 was answered before robot0'
@@ -171,7 +171,7 @@ def test_a_caller_waits_at_most_its_timeout(pools):
     pool = pools(workers=1)
     model = BatteryModel(BIG_PACK, 1.0)
     in_thread(pool.run, 'robot0', job(model, LONG), 100_000)
-    wait_for(lambda: pool.jobs()[1] == ['robot0'], 5.0, 'the long job running')
+    wait_for(lambda: pool.jobs()[1] == ['robot0'], 30.0, 'the long job running')
     asked = time.monotonic()
     with pytest.raises(Busy, match=r'busy, try again: no answer within 0.2 s'):
         pool.run('robot1', job(model, HOUR), 3600, timeout_s=0.2)
@@ -185,7 +185,7 @@ def test_a_worker_killed_during_a_job_fails_that_job_and_starts_again(pools):
     pool = pools(workers=1)
     model = BatteryModel(BIG_PACK, 1.0)
     long = in_thread(pool.run, 'robot0', job(model, LONG), 100_000)
-    wait_for(lambda: pool.jobs()[1] == ['robot0'], 5.0, 'the long job running')
+    wait_for(lambda: pool.jobs()[1] == ['robot0'], 30.0, 'the long job running')
     time.sleep(0.2)   # sent to the worker (it runs for a second or more)
     (pid,) = pool.worker_pids()
     os.kill(pid, signal.SIGKILL)
