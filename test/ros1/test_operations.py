@@ -196,7 +196,7 @@ class TestOperations(unittest.TestCase):
     def drain_rate(self, current_a):
         """Charge drawn per second of stamps over 1 s of updates, once the model draws ``current_a``."""
         start = self.state.count()
-        first = self.state.wait_new(start, lambda m: abs(m.battery.current + current_a) < 1e-6, 5.0,
+        first = self.state.wait_new(start, lambda m: abs(m.battery.current + current_a) < 1e-6, 15.0,
                                     'the model drawing %g A' % current_a)
         last = self.state.wait_new(start, lambda m: (m.battery.header.stamp - first.battery.header.stamp).to_sec()
                                    >= 1.0, 10.0, '1 s of updates')
@@ -210,7 +210,7 @@ class TestOperations(unittest.TestCase):
     def test_live_tuning_changes_the_model_and_refuses_bad_values(self):
         seen = self.state.count()
         self.set_state(90.0, NAN, NAN)
-        self.state.wait_new(seen, lambda m: m.publish_now, 5.0, 'the state set')   # older ones may come late
+        self.state.wait_new(seen, lambda m: m.publish_now, 15.0, 'the state set')   # older ones may come late
         before = self.drain_rate(1.5)
         config = self.reconfigure.update_configuration({'load_current_a': 3.0})
         self.assertEqual(config['load_current_a'], 3.0)
