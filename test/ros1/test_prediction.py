@@ -114,14 +114,23 @@ class TestPrediction(unittest.TestCase):
         return p0 + (p1 - p0) * (stamp_s - t0) / (t1 - t0)
 
     def moment_of(self, predicate, since, timeout_s, what):
-        """The battery's time (s since ``since``, a wall stamp) at which ``predicate`` first held: the middle
-        of the update that saw it and the one before (the model finds the moment within its step)."""
+        """(earliest, latest): the battery's times (s since ``since``, a wall stamp) between which ``predicate``
+        first held: the update before the one that saw it, and that one (the model finds the moment within its
+        step; on a busy machine a step is tenths of a second late, at x400 a minute of battery)."""
         index = self.state.count()
         found = self.state.wait_new(index, predicate, timeout_s, what)
         states = self.state.since(0)
         k = next(i for i, m in enumerate(states) if m is found)
-        middle = 0.5 * (states[k - 1].battery.header.stamp.to_sec() + found.battery.header.stamp.to_sec())
-        return (middle - since) * self.time_scale
+        return tuple((m.battery.header.stamp.to_sec() - since) * self.time_scale for m in (states[k - 1], found))
+
+    def assert_within_2_percent(self, predicted_s, moment, what):
+        """The predicted time within 2 % of the real moment, which lies in ``moment`` (earliest, latest)."""
+        earliest, latest = moment
+        rospy.loginfo('%s: predicted %.0f s, real %.0f-%.0f s', what, predicted_s, earliest, latest)
+        allowed = 0.02 * predicted_s
+        self.assertTrue(earliest - allowed <= predicted_s <= latest + allowed,
+                        '%s: predicted %.0f s, real %.0f-%.0f s (within 2 %%: %.0f s)'
+                        % (what, predicted_s, earliest, latest, allowed))
 
     # -- agreement ------------------------------------------------------------------
 
@@ -181,11 +190,9 @@ class TestPrediction(unittest.TestCase):
         predicted = self.ask(duration_s=[3000.0], power_w=[20.0])
         self.assertTrue(self.set_load(PLAN_LOAD, 20.0).success)
         self.assertFalse(predicted.feasible, predicted.message)
-        real_s = self.moment_of(lambda m: m.charging_state == 'Empty', start,
-                                predicted.cut_off_at_s / self.time_scale + 10.0, 'the cut-off')
-        rospy.loginfo('cut-off: predicted %.0f s, real %.0f s (error %.2f %%)', predicted.cut_off_at_s, real_s,
-                      100.0 * (real_s / predicted.cut_off_at_s - 1.0))
-        self.assertAlmostEqual(real_s, predicted.cut_off_at_s, delta=0.02 * predicted.cut_off_at_s)
+        real = self.moment_of(lambda m: m.charging_state == 'Empty', start,
+                              predicted.cut_off_at_s / self.time_scale + 10.0, 'the cut-off')
+        self.assert_within_2_percent(predicted.cut_off_at_s, real, 'cut-off')
 
     def test_the_charge_takes_the_predicted_time(self):
         self.start_at(60.0)
@@ -201,14 +208,12 @@ class TestPrediction(unittest.TestCase):
         states = self.state.since(sent - 1)
         first = next(k for k, m in enumerate(states) if m.charging_state == 'Charging')
         start = 0.5 * (states[first - 1].battery.header.stamp.to_sec() + states[first].battery.header.stamp.to_sec())
-        real_90_s = self.moment_of(lambda m: m.battery.percentage >= 0.9, start,
-                                   to_90.charge_time_s / self.time_scale + 10.0, '90 %')
-        real_full_s = self.moment_of(lambda m: m.charging_state == 'Full', start,
-                                     to_full.charge_time_s / self.time_scale + 10.0, 'Full')
-        for predicted, real_s in ((to_90, real_90_s), (to_full, real_full_s)):
-            rospy.loginfo('charge: predicted %.0f s, real %.0f s (error %.2f %%)', predicted.charge_time_s, real_s,
-                          100.0 * (real_s / predicted.charge_time_s - 1.0))
-            self.assertAlmostEqual(real_s, predicted.charge_time_s, delta=0.02 * predicted.charge_time_s)
+        real_90 = self.moment_of(lambda m: m.battery.percentage >= 0.9, start,
+                                 to_90.charge_time_s / self.time_scale + 10.0, '90 %')
+        real_full = self.moment_of(lambda m: m.charging_state == 'Full', start,
+                                   to_full.charge_time_s / self.time_scale + 10.0, 'Full')
+        self.assert_within_2_percent(to_90.charge_time_s, real_90, 'charge to 90 %')
+        self.assert_within_2_percent(to_full.charge_time_s, real_full, 'charge to Full')
         self.assertGreater(to_full.charge_time_s, to_90.charge_time_s + 600.0, 'the CV taper')
 
     def test_charge_to_percentage_left_out_means_no_charge(self):
