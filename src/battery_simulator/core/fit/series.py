@@ -35,7 +35,7 @@ CHEMISTRY_CLEAR = 1.0 / 3.0
 LARGE_CELL_FILL = 0.9
 #: and another cell of the first's chemistry is taken only where the first's level is off by more than this
 #: per cell (RMS, V): how far a car's own cell reads from the BMS's percentage varies from drive to drive. On
-#: the BMW i3's 60 drives its own cell (bmw_i3_60ah_cell) was off by a median 10.7 mV per cell and up to 48
+#: the BMW i3's 60 drives its own cell (bmw_i3_60ah_cell) was off by a median 10.9 mV per cell and up to 48
 #: (B29, below the preset's learned range); on B18 it was off by 22.7 and LG HG2 by 7.1, and LG HG2 taken held
 #: out 28.9 mV per cell against 6.6 with the fitted offset over the i3's own shape
 LEVEL_NOISE_V = 0.030
