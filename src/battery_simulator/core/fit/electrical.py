@@ -159,9 +159,9 @@ def fit_electrical(logs, masks, chemistry, cells_series, cells_parallel, tempera
             # for the flat OCV's slope and an offset (the A123 US06 log: R1 0.56 ohm, tau1 20000 s, the OCV
             # 59 mV down, 33.3 mV per cell fitted, held out 440 mV). A pair the log can time (at most a
             # quarter of the fitted span) taken where it fits within SLOW_PAIR_TIE (34.2 mV: held out 18 mV)
-            span = max(float(log.time_s[mask][-1] - log.time_s[mask][0]) for log, mask in zip(logs, masks))
+            quarter = fitted_span_s(logs, masks) / 4.0
             capped = list(high)
-            capped[-2] = max(low[-2] + 1e-6, math.log(max(TAU1_BOUNDS[0], min(TAU1_BOUNDS[1], span / 4.0))))
+            capped[-2] = max(low[-2] + 1e-6, math.log(max(TAU1_BOUNDS[0], min(TAU1_BOUNDS[1], quarter))))
             start = np.clip(z0, np.asarray(low) + 1e-9, np.asarray(capped) - 1e-9)
             timed = least_squares(residuals, start, bounds=(low, capped), args=(use_tables,), x_scale='jac',
                                   diff_step=1e-4, max_nfev=max_evaluations)
@@ -194,8 +194,12 @@ def tau1_bounds(logs, masks):
     fitted part's longest log lasts. A pair slower than that is not timed by the log: it integrates the charge,
     standing in for the OCV's slope (BMW i3 A22: tau1 6537 +- 1800 s and R1 13 times the preset's over 1103 s
     fitted, held out 16.5 mV per cell; with tau1 at most the span, 3.2)."""
-    span = max(float(log.time_s[mask][-1] - log.time_s[mask][0]) for log, mask in zip(logs, masks) if mask.any())
-    return TAU1_BOUNDS[0], max(2.0 * TAU1_BOUNDS[0], min(TAU1_BOUNDS[1], span))
+    return TAU1_BOUNDS[0], max(2.0 * TAU1_BOUNDS[0], min(TAU1_BOUNDS[1], fitted_span_s(logs, masks)))
+
+
+def fitted_span_s(logs, masks):
+    """How long the fitted part of the longest log lasts, s (the slowest pair the logs can time)."""
+    return max(float(log.time_s[mask][-1] - log.time_s[mask][0]) for log, mask in zip(logs, masks) if mask.any())
 
 
 def jacobian_sigmas(solution, rmse):
