@@ -26,7 +26,7 @@ from battery_simulator.core.fit.known import (check_capacity, check_units, cutof
                                                interpolated, known_charge, log_has_rest, pinned_at_dynamic_cutoff,
                                                preset_temperature)
 from battery_simulator.core.fit.loads_charger import current_limits, fit_charger, fit_loads
-from battery_simulator.core.fit.ocv_curve import LEARN_MIN_SOC_SPAN, learn_curve
+from battery_simulator.core.fit.ocv_curve import LEARN_MIN_SOC_SPAN, fitted_soc_range, learn_curve
 from battery_simulator.core.fit.series import CHEMISTRY_CLEAR, LEVEL_NOISE_V, series_count
 from battery_simulator.core.parameter_rules import ParameterError
 
@@ -282,9 +282,9 @@ def _remapped_chemistry(masks, chemistry, electrical, has_rest, fitted):
     the cells' charge, and cells of one chemistry differ in slope), where that fits the fitted part at least
     REMAP_GAIN better; else None."""
     from scipy.optimize import least_squares
-    socs = np.concatenate([piece[1][mask] for piece, mask in zip(electrical.pieces, masks)])
-    if float(np.max(socs) - np.min(socs)) < LEARN_MIN_SOC_SPAN:   # a slope is not told over less (the BMW i3's
-        return None   # A14, 80-83 %: 0.34 + 0.56 x, and its next drive at 63-75 % 32.7 mV per cell off)
+    low, high = fitted_soc_range(electrical, masks)
+    if high - low < LEARN_MIN_SOC_SPAN:   # a slope is not told over less (the BMW i3's A14, 80-83 %:
+        return None   # 0.34 + 0.56 x, and its next drive at 63-75 % 32.7 mV per cell off)
     names = (['offset'] if has_rest else []) + ['r0_ohm', 'r1_ohm', 'r_fast_ohm']
 
     def system(z, part):

@@ -27,12 +27,17 @@ LEARN_KNOT_SOC, LEARN_MIN_KNOTS, LEARN_MAX_KNOTS = 0.02, 4, 40
 EFFICIENCY_SPAN, EFFICIENCY_BOUNDS = 0.05, (0.85, 1.0)
 
 
+def fitted_soc_range(electrical, masks):
+    """(lowest, highest) SOC the electrical fit puts the fitted samples at."""
+    socs = np.concatenate([piece[1][mask] for piece, mask in zip(electrical.pieces, masks)])
+    return float(np.min(socs)), float(np.max(socs))
+
+
 def learn_curve(logs, masks, chemistry, temperatures, electrical, has_rest, known=None):
     """The OCV at knots over the covered SOC range, when the logs cover enough of it and the learned curve
     predicts blocks of the fitted part held out in turn better than the preset's shape (else None).
     Returns {knots, values, rmse_v, resistances, sigmas, gap, smoothness, cv: (preset, curve) RMSEs, taus}."""
-    socs = np.concatenate([piece[1][mask] for piece, mask in zip(electrical.pieces, masks)])
-    low, high = float(np.min(socs)), float(np.max(socs))
+    low, high = fitted_soc_range(electrical, masks)
     if high - low < LEARN_MIN_SOC_SPAN:
         return None
     count = int(np.clip(round((high - low) / LEARN_KNOT_SOC), LEARN_MIN_KNOTS, LEARN_MAX_KNOTS)) + 1
