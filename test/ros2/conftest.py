@@ -3,6 +3,7 @@ a ROS domain of its own, so two runs on one machine (ctest runs several test fil
 other: a domain is taken by holding a lock file for it for the run's life."""
 import fcntl
 import os
+import shutil
 import sys
 import tempfile
 
@@ -38,6 +39,16 @@ def pytest_configure(config):
     assert os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') == 'SYSTEM_DEFAULT'
     # before any node starts; the pid spreads concurrent runs, the lock makes them differ
     os.environ['ROS_DOMAIN_ID'] = str(take_domain(os.getpid() % len(DOMAINS)))
+    # every temporary file this run makes (its nodes' logs, parameter files) in a directory of its own, removed
+    # at its end (each node started left its log in /tmp: test_ros_args alone 5 files; the domain locks above
+    # stay there, shared between runs)
+    tempfile.tempdir = tempfile.mkdtemp(prefix='battery_simulator_ros2_test_')
+
+
+def pytest_unconfigure(config):
+    if tempfile.tempdir and os.path.basename(tempfile.tempdir).startswith('battery_simulator_ros2_test_'):
+        shutil.rmtree(tempfile.tempdir, ignore_errors=True)
+        tempfile.tempdir = None
 
 
 @pytest.fixture(scope='module')
