@@ -4,9 +4,11 @@ parameter, the value and what is allowed, and a non-zero exit.
 
 Every bad start-up is independent, so they all run at once (four at a time)
 before the checks; each check then reads its own node's output."""
+import atexit
 import concurrent.futures
 import itertools
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -23,6 +25,7 @@ from rostest_helpers import Recorder, node_command, stop_process, wait_for
 STARTUP_TIMEOUT_S = 60.0
 RUN_NUMBERS = itertools.count()
 CONFIG_DIR = tempfile.mkdtemp(prefix='battery_simulator_bad_startup_')
+atexit.register(shutil.rmtree, CONFIG_DIR, True)   # the configs and state files this test wrote
 
 
 def config_file(name, content):
