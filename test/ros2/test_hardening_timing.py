@@ -291,6 +291,29 @@ def one_hour_plan():
                            charge_to_percentage=math.nan)
 
 
+#: a client's first predict is asked up to this many times, each waited for this long (an answer takes 0.1 s here)
+FIRST_TRIES, FIRST_TRY_S = 5, 2.0
+
+
+def first_answer(client):
+    """How many asks it took until ``client``'s first predict was answered (None: FIRST_TRIES went unanswered).
+
+    A synchronisation, not a measurement: wait_for_service sees the client's own endpoints matched to the server's,
+    not the server's matched to the client's, and a request sent before the server knows the new client is lost by
+    DDS (its reader is volatile), as is a response sent before the server's writer matches the client's reader
+    (rmw_fastrtps drops it after 100 ms: 'failed to send response (timeout)'). A lost one never comes, so the test
+    asks again rather than wait it out; the flood that follows is measured as before."""
+    futures = []
+    for tries in range(1, FIRST_TRIES + 1):
+        futures.append(client.call_async(Predict.Request(duration_s=[1.0], power_w=[1.0])))
+        if wait_until(lambda: any(future.done() for future in futures), FIRST_TRY_S):
+            for future in futures:
+                if not future.done():
+                    client.remove_pending_request(future)
+            return tries
+    return None
+
+
 def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
     """40 clients of one process ask one battery for one-hour plans at once: each is answered within 10 s, with the
     plan's answer or busy (success false, a message saying so). rmw_fastrtps delivers every response of the service
@@ -304,12 +327,10 @@ def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
         clients = [probe.node.create_client(Predict, '/forty/battery_simulator/predict')
                    for _ in range(PREDICTS_AT_ONCE)]
         assert all(client.wait_for_service(timeout_sec=10.0) for client in clients), 'predict not served'
-        # wait_for_service sees the server's request reader; the server's response writer may not have matched a
-        # new client's response reader yet, and a response sent before that is lost (DDS, volatile): each client
-        # is answered once, one at a time, before the flood
-        for client in clients:
-            first = client.call_async(Predict.Request(duration_s=[1.0], power_w=[1.0]))
-            assert wait_until(first.done, 10.0), 'a first predict of one client unanswered'
+        # each client is answered once, one at a time, before the flood (see first_answer)
+        tries = [first_answer(client) for client in clients]
+        assert None not in tries, 'a first predict of client %d unanswered in %d tries of %g s:\n%s' % (
+            tries.index(None), FIRST_TRIES, FIRST_TRY_S, process.output())
         request = one_hour_plan()
         sent = time.monotonic()
         futures = [client.call_async(request) for client in clients]
@@ -330,7 +351,8 @@ def test_forty_predicts_at_once_are_each_answered_within_10_s(probe):
         assert kinds.get('ok', 0) > 0, 'none answered with the plan: %s' % kinds
         late = sorted(seconds for seconds in answered_at.values() if seconds > ANSWER_WITHIN_S)
         assert not late, 'answered later than %g s: %s (%s)' % (ANSWER_WITHIN_S, late, kinds)
-        print('forty: %s, the last answered at %.2f s' % (kinds, max(answered_at.values())))
+        print('forty: %s, the last answered at %.2f s (first predicts asked again: %d)' % (
+            kinds, max(answered_at.values()), sum(tries) - len(tries)))
     finally:
         for client in clients:
             probe.node.destroy_client(client)

@@ -278,10 +278,13 @@ class FleetHost:
         self._store.write_if_due()
 
     def _tick(self):
-        """Update every battery; publish the battery_status that are due, the diagnostics and the fleet's states."""
+        """Update every battery; publish the battery_status that are due, the diagnostics and the fleet's states; then
+        write the state file. A battery_status is stamped as it goes out, with its battery's level at this tick's
+        update: the file's write between the two (its JSON and rename, 65-156 ms on a loaded machine at one robot)
+        made the level that much older than its stamp (0.7 points at x300), as ROS 1's host never did (its statuses
+        go out on a timer of their own, its file after the round of updates)."""
         for robot in self.robots:
             robot.update()
-        self._store.write_if_due()
         now = time.monotonic()
         for robot, due in zip(self.robots, self._status_due):
             if due.due(now):
@@ -292,6 +295,7 @@ class FleetHost:
             self._diagnostics()
         if self._states_due.due(now):
             self._publish_states()
+        self._store.write_if_due()
 
     def _publish_states(self):
         if self._states_pub.get_subscription_count() == 0:
