@@ -103,7 +103,10 @@ def run(path, output):
 def interrupt(path, directory, after_s):
     """Seconds battery_fit took to stop after SIGINT sent ``after_s`` into its run, and whether a config exists."""
     output = os.path.join(directory, 'interrupted.yaml')
-    process = subprocess.Popen(fit_command(path, output), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    # Ctrl-C's SIGINT as a terminal sends it: a benchmark started in the background (nohup, cron, `&` in a script)
+    # ignores SIGINT and its children would inherit that (battery_fit then ran to its end: 40.9 s)
+    process = subprocess.Popen(fit_command(path, output), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(after_s)
     if process.poll() is not None:
         return None, os.path.exists(output)

@@ -22,6 +22,10 @@ MILLIVOLTS_V = 1500.0
 MILLISECONDS_C_RATE, MILLISECONDS_PERIOD_S = 0.01, 10.0
 #: samples per log whose pairs give the percentage's slope against the counted charge
 PAIR_SAMPLES = 300
+#: a pair counts where the charge between its samples is at least this fraction of the log's range: over a long
+#: standstill the count moves by the current sensor's noise alone and the percentage not at all (a robot's 24 h
+#: log at 10 Hz standing at its cut-off for hours: the slopes near 0 took the capacity to 10.8 Ah from 9.6)
+PAIR_MIN_CHARGE = 0.005
 #: a discharge ends at empty (a cut-off) where its voltage falls over its last KNEE_SPAN of time at least
 #: KNEE_RATE times its median rate (LG HG2 at C/20: 0.26 V in its last hour, 0.06 V an hour before)
 KNEE_SPAN, KNEE_RATE = 0.05, 3.0
@@ -285,7 +289,7 @@ def _percentage_capacity(logs, masks):
         keep = stretch[first] == stretch[second]   # filled gap's current) the charge between them is not the log's
         first, second = first[keep], second[keep]
         dq = q[second] - q[first]
-        moved = np.abs(dq) > 0
+        moved = np.abs(dq) > PAIR_MIN_CHARGE * np.ptp(q)
         slopes.append((p[second] - p[first])[moved] / dq[moved])
         pieces.append((q, p))
     if max(np.ptp(p) for _, p in pieces) < PERCENTAGE_SPAN or not sum(len(s) for s in slopes):
