@@ -374,3 +374,93 @@ def test_capacity_from_the_percentage_is_not_moved_by_hours_at_a_standstill():
     log = FitLog(name='standstill', time_s=t, voltage_v=voltage, current_a=current, percentage=percentage)
     capacity = known_charge([log], [np.ones(len(t), dtype=bool)]).capacity_ah
     assert capacity == pytest.approx(9.6, rel=0.02)
+
+
+# -- messy logs (a hostile probe's findings) ----------------------------------------------------------
+
+def _robot_rows(robot_log):
+    """The robot log's samples as CSV rows (time, voltage, current, temperature, percentage)."""
+    _, samples, _ = robot_log
+    return [(s.time_s, round(s.voltage_v, 4), round(s.current_a, 4), round(s.temperature_c, 2),
+             round(s.percentage, 5)) for s in samples]
+
+
+def test_a_sensors_glitches_are_left_out_with_a_warning(robot_log, tmp_path, capsys):
+    """Five samples of 327.67 A (a CAN field's overflow) in the robot's 5 A log gave R0 at its search's bound
+    (1e-05 ohm), a 218 A charge limit and 15.8 mV held out, without a word; a current of 1e200 A stopped the
+    fit with a traceback (numpy's LinAlgError). Now they are left out and said, and the fit is the clean log's."""
+    truth = robot_log[0]
+    rows = _robot_rows(robot_log)
+    for k in range(len(rows) // 6, len(rows) - 100, len(rows) // 6):
+        rows[k] = rows[k][:2] + (327.67,) + rows[k][3:]
+    rows[300] = rows[300][:2] + (1e200,) + rows[300][3:]
+    header = 'time,voltage,current,temperature,percentage'
+    path = _csv(tmp_path / 'glitches.csv', rows, header=header)
+    output = str(tmp_path / 'robot.yaml')
+    fit_cli.main([path, '-o', output])
+    report = capsys.readouterr().out
+    assert '5 samples far outside the others left out' in report and '327.67' in report, report
+    params = load_yaml(output)
+    assert params.r0_ohm == pytest.approx(truth.r0_ohm, rel=0.15), report
+    assert params.design_capacity_ah == pytest.approx(truth.design_capacity_ah, rel=0.03), report
+
+
+def test_a_clock_that_restarted_is_one_line(robot_log, tmp_path, capsys):
+    """Stamps that go back to 0 halfway (a reboot) were sorted into the first half, 5400 taken for duplicates
+    and dropped, and R0 came out 0.016 ohm (0.026) without a word."""
+    rows = _robot_rows(robot_log)
+    half = len(rows) // 2
+    rows = rows[:half] + [(r[0] - rows[half][0],) + r[1:] for r in rows[half:]]
+    _refused([_csv(tmp_path / 'restart.csv', rows, header='time,voltage,current,temperature,percentage')], capsys,
+             tmp_path, ['restart.csv', 'goes back', 'restarted'])
+
+
+def test_a_percentage_that_changes_scale_or_goes_negative_is_not_used(robot_log, tmp_path, capsys):
+    """A column 0-1 for half the log and 0-100 after (two logs joined) gave a 970 Ah pack of 6S16P, 322 mV per
+    cell held out; negative percentages were read as the gauge's."""
+    truth = robot_log[0]
+    rows = _robot_rows(robot_log)
+    half = len(rows) // 2
+    rows = rows[:half] + [r[:4] + (100.0 * r[4],) for r in rows[half:]]
+    path = _csv(tmp_path / 'scales.csv', rows, header='time,voltage,current,temperature,percentage')
+    output = str(tmp_path / 'robot.yaml')
+    fit_cli.main([path, '-o', output])
+    report = capsys.readouterr().out
+    assert 'the percentage jumps' in report and 'not used' in report, report
+    params = load_yaml(output)
+    assert (params.cells_series, params.cells_parallel) == (truth.cells_series, truth.cells_parallel), report
+    log = prepare(read_log(_csv(tmp_path / 'negative.csv', [r[:4] + (-r[4],) for r in _robot_rows(robot_log)],
+                                header='time,voltage,current,temperature,percentage')))
+    assert log.percentage is None and any('below 0 left out' in note for note in log.notes), log.notes
+
+
+def test_a_temperature_in_kelvin_and_a_file_without_lines_are_one_line(tmp_path, capsys):
+    steps = [(k, 11.0 + (0.05 if (k // 10) % 2 else 0.0), -1.0 if (k // 10) % 2 else 0.0, 298.15) for k in range(200)]
+    _refused([_csv(tmp_path / 'kelvin.csv', steps, header='time,voltage,current,temperature')], capsys, tmp_path,
+             ['kelvin', 'Celsius'])
+    (tmp_path / 'zeros.csv').write_bytes(b'\0' * 300000)   # /dev/zero grew to 22 GB before the kernel killed it
+    _refused([str(tmp_path / 'zeros.csv')], capsys, tmp_path, ['zeros.csv', 'first line is longer'])
+    _refused(['/dev/zero'], capsys, tmp_path, ['/dev/zero', 'first line is longer'])
+
+
+def test_a_plot_written_over_only_where_battery_fit_wrote_it(robot_log, tmp_path, capsys):
+    """--plot wrote over a user's picture; a plot battery_fit wrote says so in its metadata and may be written
+    again. --chemistry takes LFP and Li-ion in capitals too."""
+    truth, samples, commands = robot_log
+    log = _write('csv', tmp_path, samples, commands)
+    picture = tmp_path / 'holiday.png'
+    picture.write_bytes(b'my picture')
+    with pytest.raises(SystemExit) as stop:
+        fit_cli.main([log, '-o', str(tmp_path / 'robot.yaml'), '--plot', str(picture)])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and 'is not a plot battery_fit wrote' in err, err
+    assert picture.read_bytes() == b'my picture'
+    plot = tmp_path / 'fit.png'
+    for _ in range(2):   # the second run writes over its own plot
+        fit_cli.main([log, '-o', str(tmp_path / 'robot.yaml'), '--plot', str(plot)])
+        capsys.readouterr()
+        assert fit_cli.PLOT_MARK.encode() in plot.read_bytes()
+    assert fit_cli.parse_arguments([log, '-o', str(tmp_path / 'x.yaml'), '--chemistry', 'LFP']).chemistry == \
+        'a123_lfp_cell'
+    assert fit_cli.parse_arguments([log, '-o', str(tmp_path / 'x.yaml'), '--chemistry', 'Li-ion']).chemistry == \
+        'lg_hg2_cell'

@@ -31,6 +31,12 @@ PROG = 'battery_fit'
 DEFAULT_CHEMISTRY = 'lg_hg2_cell'
 #: --chemistry's short names; without --chemistry these are tried and the logs decide
 CHEMISTRIES = {'lg_hg2': 'lg_hg2_cell', 'li-ion': 'lg_hg2_cell', 'nmc': 'lg_hg2_cell', 'lfp': 'a123_lfp_cell'}
+#: the plot's metadata says battery_fit wrote it (a later run may write over it, over no other file); the key per
+#: format matplotlib writes metadata in (the others: an existing file is never written over)
+PLOT_MARK = 'battery_fit (battery_simulator)'
+PLOT_METADATA_KEY = {'png': 'Software', 'pdf': 'Creator', 'svg': 'Creator', 'eps': 'Creator', 'ps': 'Creator'}
+#: how much of an existing plot is searched for PLOT_MARK (a PDF has it at its end)
+PLOT_MARK_SEARCH_BYTES = 32 * 1024 * 1024
 DETECTED = ('lg_hg2_cell', 'a123_lfp_cell', 'bmw_i3_60ah_cell')
 BAR_WIDTH = 30
 #: a fit worse than this (per cell, on the fitted part) is refused: the logs are not what the model is
@@ -71,9 +77,12 @@ def parse_arguments(argv):
     parser.add_argument('--plot', metavar='PNG', help='the logs\' voltage against the model\'s, with residuals')
     parser.add_argument('--profiles', metavar='DIR', help='write each log\'s current as a battery_replay profile')
     args = parser.parse_args(argv)
+    if args.chemistry is not None and args.chemistry not in preset_names():
+        args.chemistry = args.chemistry.lower()   # LFP, Li-ion
     args.chemistry = CHEMISTRIES.get(args.chemistry, args.chemistry)
     if args.chemistry is not None and args.chemistry not in preset_names():
-        parser.error('argument --chemistry: %r is not a preset (one of %s)' % (args.chemistry, ', '.join(preset_names())))
+        parser.error('argument --chemistry: %r is neither %s nor a preset (one of %s)' % (
+            args.chemistry, ', '.join(sorted(CHEMISTRIES)), ', '.join(preset_names())))
     if os.path.isdir(args.output):
         parser.error('argument -o: %s is a directory (give a file name for the config)' % args.output)
     problem = output_problem(args.output, args.logs) or _directory_problem(args.output)
@@ -125,7 +134,8 @@ def _directory_problem(path):
 
 def plot_problem(path, output, logs):
     """Why the plot cannot go to ``path`` (checked before the fit, which may take minutes), or None: a
-    directory, a missing directory, one of the logs, the config, a format matplotlib does not write."""
+    directory, a missing directory, one of the logs, the config, a file battery_fit did not write (PLOT_MARK), a
+    format matplotlib does not write."""
     if os.path.isdir(path):
         return '%s is a directory (give a file name for the plot)' % path
     problem = _directory_problem(path)
@@ -136,6 +146,9 @@ def plot_problem(path, output, logs):
     for log in logs:
         if os.path.exists(path) and os.path.exists(log) and os.path.samefile(path, log):
             return '%s is one of the logs (give another file name for the plot)' % path
+    if os.path.exists(path) and not _plot_battery_fit_wrote(path):
+        return ('%s exists and is not a plot battery_fit wrote: it is left alone (remove it, or give another file '
+                'name)' % path)
     try:
         from matplotlib.backend_bases import FigureCanvasBase
     except ImportError:
@@ -146,6 +159,13 @@ def plot_problem(path, output, logs):
         return '%s: matplotlib writes no .%s (png, or one of %s)' % (path, extension, ', '.join(sorted(formats)))
     return None
 
+
+def _plot_battery_fit_wrote(path):
+    try:
+        with open(path, 'rb') as stream:
+            return PLOT_MARK.encode() in stream.read(PLOT_MARK_SEARCH_BYTES)
+    except OSError:
+        return False
 
 
 def output_problem(output, logs):
@@ -279,7 +299,8 @@ def plot(path, result, numbers):
     bottom.axhline(0.0, color='black', lw=0.5)
     figure.tight_layout()
     try:
-        figure.savefig(path, dpi=90)
+        key = PLOT_METADATA_KEY.get(os.path.splitext(path)[1][1:].lower() or 'png')
+        figure.savefig(path, dpi=90, metadata={key: PLOT_MARK} if key else None)
     except OSError as error:
         raise FitError('cannot write the plot %s: %s' % (path, error.strerror)) from None
     finally:

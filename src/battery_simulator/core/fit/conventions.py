@@ -21,6 +21,22 @@ MAX_SAMPLES = 150000
 MIN_CURRENT_SPREAD_A = 0.02
 #: a constant-current log is fitted (capacity, OCV) where its voltage moves by at least this much, V
 MIN_STEADY_VOLTAGE_SPAN_V = 0.05
+#: a number larger than this in the voltage or current column is no measurement in any unit (an overflowed
+#: field, 1e308): left out like NaN
+NOT_A_MEASUREMENT = 1e9
+#: a sensor's glitch, left out with a warning: a current above this many times the log's 99th percentile of
+#: |current| (a CAN field's 327.67 A in a robot's 5 A log), a voltage outside this range of its median; more
+#: than GLITCH_SHARE of the samples so far out is no glitch but two batteries or two units in one log: refused
+GLITCH_CURRENT_FACTOR = 10.0
+GLITCH_VOLTAGE_RANGE = (0.5, 2.0)
+GLITCH_SHARE = 0.01
+#: the time going back by more than this many sampling periods (and MIN_SPAN_S), a few times at most, is a
+#: clock that restarted, not stamps out of order
+RESTART_PERIODS, RESTARTS_AT_MOST = 100.0, 3
+#: a percentage moving by more than this (0..1) between two samples closer than GAP_S is no gauge's: not used
+PERCENTAGE_JUMP = 0.2
+#: a median temperature above this is in kelvin
+KELVIN_ABOVE_C = 150.0
 
 
 @dataclass
@@ -67,10 +83,28 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
         raise FitError('%s: every voltage is NaN or not positive (%d samples): nothing to fit' % (name, len(v)))
     if not np.isfinite(i).any():
         raise FitError('%s: every current is NaN (%d samples): the current is needed to fit' % (name, len(i)))
-    usable = np.isfinite(t) & np.isfinite(v) & (v > 0) & np.isfinite(i)
+    usable = (np.isfinite(t) & np.isfinite(v) & (v > 0) & np.isfinite(i) & (np.abs(v) < NOT_A_MEASUREMENT)
+              & (np.abs(i) < NOT_A_MEASUREMENT))
+    if not usable.any():
+        raise FitError('%s: no sample has a stamp, a voltage and a current a battery gives (%d samples)' % (name, len(t)))
     if (~usable).any():
-        notes.append('%d of %d samples without a stamp, voltage or current (NaN) left out' % ((~usable).sum(), len(t)))
+        notes.append('%d of %d samples without a stamp, voltage or current (NaN, or beyond %.0e) left out'
+                     % ((~usable).sum(), len(t), NOT_A_MEASUREMENT))
     t, v, i, temp, pct = t[usable], v[usable], i[usable], temp[usable], pct[usable]
+    current_glitch, voltage_glitch = glitches(name, v, i)
+    glitch = current_glitch | voltage_glitch
+    if glitch.any():
+        what = []
+        if current_glitch.any():
+            what.append('current up to %.6g A against %.3g A (the 99th percentile of the others)' % (
+                np.max(np.abs(i[current_glitch])), np.percentile(np.abs(i[~glitch]), 99)))
+        if voltage_glitch.any():
+            what.append('voltage %.6g-%.6g V against %.4g V (the median)' % (
+                np.min(v[voltage_glitch]), np.max(v[voltage_glitch]), np.median(v[~glitch])))
+        notes.append('WARNING: %d samples far outside the others left out (a sensor\'s glitch?): %s'
+                     % (glitch.sum(), '; '.join(what)))
+        t, v, i, temp, pct = t[~glitch], v[~glitch], i[~glitch], temp[~glitch], pct[~glitch]
+    _refuse_a_restarted_clock(name, t)
     if (np.diff(t) < 0).any():
         notes.append('%d stamps out of order: sorted' % (np.diff(t) < 0).sum())
         order = np.argsort(t, kind='stable')
@@ -118,14 +152,16 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     else:
         notes.append('current timing: the voltage answers the previous sample\'s current: each sample\'s current '
                      'flowed until the next sample (battery_replay\'s default)')
+    if np.isfinite(temp).sum() >= MIN_SAMPLES and float(np.nanmedian(temp)) > KELVIN_ABOVE_C:
+        raise FitError('%s: the temperature looks like kelvin (median %.6g): the column must be in degrees Celsius'
+                       % (name, float(np.nanmedian(temp))))
     if np.isfinite(temp).sum() >= MIN_SAMPLES:
         log.temperature_c = _filled(temp)
     else:
         notes.append('no temperature (NaN or absent): the preset\'s thermal values kept')
-    if np.isfinite(pct).sum() >= MIN_SAMPLES:
-        scale = 100.0 if np.nanmax(pct) > 1.5 else 1.0
-        notes.append('percentage: %s' % ('0-100, read as 0-1' if scale == 100.0 else '0-1 (as BatteryState)'))
-        log.percentage = pct / scale
+    pct = _usable_percentage(t, pct, notes)
+    if pct is not None:
+        log.percentage = pct
     if raw.motion_time_s is not None and len(raw.motion_time_s) > 0:
         _motion_at_samples(log, raw, t, cmd_vel_timeout_s)
     return log
@@ -251,6 +287,66 @@ def current_is_inverted(t, v, i):
     if np.ptp(charge) == 0:
         return False
     return float(np.polyfit(charge, v, 1)[0]) < 0.0
+
+
+def glitches(name, v, i):
+    """(current's, voltage's): the samples no battery gives beside the log's others (GLITCH_CURRENT_FACTOR,
+    GLITCH_VOLTAGE_RANGE); FitError when more than GLITCH_SHARE of them are so far out."""
+    typical_a = max(float(np.percentile(np.abs(i), 99)), MIN_CURRENT_SPREAD_A)
+    median_v = float(np.median(v))
+    current_glitch = np.abs(i) > GLITCH_CURRENT_FACTOR * typical_a
+    voltage_glitch = (v < GLITCH_VOLTAGE_RANGE[0] * median_v) | (v > GLITCH_VOLTAGE_RANGE[1] * median_v)
+    glitch = current_glitch | voltage_glitch
+    if glitch.sum() > GLITCH_SHARE * len(v):
+        raise FitError('%s: %d of %d samples have a voltage outside %g-%g times the median (%.4g V): two batteries, '
+                       'or two units, in one log? give one battery\'s log in volts' % (
+                           name, voltage_glitch.sum(), len(v), GLITCH_VOLTAGE_RANGE[0], GLITCH_VOLTAGE_RANGE[1],
+                           median_v))
+    return current_glitch, voltage_glitch
+
+
+def _refuse_a_restarted_clock(name, t):
+    """FitError where the time goes back far (RESTART_PERIODS) a few times (RESTARTS_AT_MOST) and runs on: a clock
+    that restarted (a reboot), whose samples sorted by time would be interleaved, half of them taken for duplicates."""
+    steps = np.diff(t)
+    back = np.flatnonzero(steps < 0)
+    if not back.size or back.size > RESTARTS_AT_MOST:
+        return
+    forward = steps[steps > 0]
+    period = float(np.median(forward)) if forward.size else 0.0
+    far = -steps[back] > max(MIN_SPAN_S, RESTART_PERIODS * period)
+    if far.any():
+        k = back[far][0]
+        raise FitError('%s: the time goes back from %.6g s to %.6g s and runs on from there: a clock that restarted '
+                       '(a reboot of the robot or the logger)? give the pieces before and after it as logs of their '
+                       'own (battery_fit A.csv B.csv ...)' % (name, t[k], t[k + 1]))
+
+
+def _usable_percentage(t, pct, notes):
+    """The logged percentage as 0..1, or None (absent, or not a gauge's: said in ``notes``): 0..100 read as 0..1,
+    a value below 0 left out, a column that jumps by more than PERCENTAGE_JUMP between close samples not used."""
+    if np.isfinite(pct).sum() < MIN_SAMPLES:
+        return None
+    negative = pct < 0
+    if negative.any():
+        notes.append('%d percentages below 0 left out (not a percentage; BatteryState says NaN where unknown)'
+                     % negative.sum())
+        pct = np.where(negative, np.nan, pct)
+        if np.isfinite(pct).sum() < MIN_SAMPLES:
+            return None
+    scale = 100.0 if np.nanmax(pct) > 1.5 else 1.0
+    pct = pct / scale
+    finite = np.flatnonzero(np.isfinite(pct))
+    jumps = np.abs(np.diff(pct[finite])) * (np.diff(t[finite]) < GAP_S)
+    if jumps.size and jumps.max() > PERCENTAGE_JUMP:
+        k = finite[int(np.argmax(jumps))]
+        notes.append('WARNING: the percentage jumps from %.4g to %.4g (as logged) between two samples %.3g s apart: '
+                     'two scales (0-1 and 0-100) or two batteries in one column? not used' % (
+                         scale * pct[k], scale * pct[finite[int(np.argmax(jumps)) + 1]],
+                         t[finite[int(np.argmax(jumps)) + 1]] - t[k]))
+        return None
+    notes.append('percentage: %s' % ('0-100, read as 0-1' if scale == 100.0 else '0-1 (as BatteryState)'))
+    return pct
 
 
 def _filled(values):

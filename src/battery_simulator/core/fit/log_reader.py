@@ -8,6 +8,7 @@ or nav_msgs/Odometry for motion) unless named.
 """
 import csv
 import gzip
+import itertools
 import math
 import sys
 import zlib
@@ -21,6 +22,8 @@ BATTERY_TYPE = 'sensor_msgs/msg/BatteryState'
 MOTION_TYPES = ('geometry_msgs/msg/Twist', 'geometry_msgs/msg/TwistStamped', 'nav_msgs/msg/Odometry')
 CSV_COLUMNS = ('time', 'voltage', 'current')
 CSV_OPTIONAL = ('temperature', 'percentage', 'linear_x', 'angular_z')
+#: a CSV's header line is at most this long (read no further when it has no line end)
+HEADER_CHARS = 65536
 #: where tools/install_dependencies.sh installs rosbags (pip --target), below the source or install tree
 PYTHON_DEPS = 'build/python_deps'
 
@@ -71,7 +74,11 @@ def _read_csv(path, gzipped=False):
     opener = gzip.open if gzipped else open
     try:
         with opener(path, 'rt', newline='', encoding='utf-8-sig') as stream:
-            rows = csv.reader(stream)
+            first = stream.readline(HEADER_CHARS)   # bounded: /dev/zero or a file of zero bytes has no line end
+            if len(first) == HEADER_CHARS and not first.endswith(('\n', '\r')):
+                raise FitError('%s: not a CSV log: its first line is longer than %d characters (a CSV needs a header: '
+                               '%s)' % (path, HEADER_CHARS, ', '.join(CSV_COLUMNS)))
+            rows = csv.reader(itertools.chain([first], stream))
             try:
                 header = [name.strip().lower() for name in next(rows)]
             except StopIteration:
