@@ -278,11 +278,8 @@ class FleetHost:
         self._store.write_if_due()
 
     def _tick(self):
-        """Update every battery; publish the battery_status that are due, the diagnostics and the fleet's states; then
-        write the state file. A battery_status is stamped as it goes out, with its battery's level at this tick's
-        update: the file's write between the two (its JSON and rename, 65-156 ms on a loaded machine at one robot)
-        made the level that much older than its stamp (0.7 points at x300), as ROS 1's host never did (its statuses
-        go out on a timer of their own, its file after the round of updates)."""
+        """Update every battery; publish what is due; then write the state file (written between, its 65-156 ms on a
+        busy machine made a status's level that much older than its stamp: 0.7 points at x300)."""
         for robot in self.robots:
             robot.update()
         now = time.monotonic()
