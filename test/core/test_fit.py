@@ -226,6 +226,9 @@ def test_bad_inputs_are_one_line(tmp_path, capsys):
     _refused([str(tmp_path / 'missing.bag')], capsys, tmp_path, ['no such file'])
     _refused([str(tmp_path / 'flat.csv'), '--cells-series', '0'], capsys, tmp_path, ['--cells-series'])
     _refused([str(tmp_path / 'flat.csv'), '--chemistry', 'unobtainium'], capsys, tmp_path, ['--chemistry'])
+    # 11 V as 2 cells: 5.5 V per cell is no cell's (said only that the OCV curve left no room, before)
+    _refused([_csv(tmp_path / 'steps.csv', steps), '--cells-series', '2'], capsys, tmp_path,
+             ['at 2 cells in series', 'per cell', '--cells-series'])
     # stamps in nanoseconds (a ROS stamp exported as an integer): no pause to cut at, a log of 55,000 hours
     _refused([_csv(tmp_path / 'nanoseconds.csv', [(k * 10 ** 9, v, c) for k, v, c in steps])], capsys, tmp_path,
              ['nanoseconds.csv', 'apart', 'seconds'])

@@ -54,6 +54,23 @@ LEVEL_SPREAD = 0.05
 MODULE_SIZES = (12, 8, 6, 4, 2, 1)
 
 
+def _cell_range(params):
+    """(lowest, highest) voltage per cell a log of ``params``'s cell may show."""
+    return (params.cell_cutoff_voltage_v - CELL_VOLTAGE_MARGIN['below'],
+            params.cell_charge_voltage_v + CELL_VOLTAGE_MARGIN['above'])
+
+
+def _refuse_a_count_no_cell_allows(cells_series, low, high, candidates):
+    """FitError where the fitted part's voltage (``low``-``high``) at ``cells_series`` cells is no candidate's."""
+    if any(_cell_range(params)[0] <= low / cells_series and high / cells_series <= _cell_range(params)[1]
+           for _, params in candidates):
+        return
+    raise FitError('at %d cells in series the logs\' voltage is %.3g-%.3g V per cell, no cell\'s (%s): check '
+                   '--cells-series (or leave it out: the count is found from the voltage)' % (
+                       cells_series, low / cells_series, high / cells_series,
+                       '; '.join('%s %.2f-%.2f V' % ((name,) + _cell_range(params)) for name, params in candidates)))
+
+
 def series_count(logs, masks, candidates, known, cells_series, why, progress, warnings):
     """(series count, why, chemistry name, chemistry params, whether the count is not the best fit's but the
     usual layout near it): every count the fitted part's voltage range
@@ -69,14 +86,15 @@ def series_count(logs, masks, candidates, known, cells_series, why, progress, wa
     short_known = known.thinned([max(1, len(log.time_s) // SEARCH_SAMPLES) for log in logs])
     candidates = _pack_sized_first([item for item in candidates
                                     if _holds_a_cell(item[1], candidates[0][1], known.capacity_ah)])
+    if cells_series:
+        _refuse_a_count_no_cell_allows(cells_series, low, high, candidates)
     scores, tried = [], []
     for name, params in candidates:
         chemistry = Chemistry(params)
         if cells_series:
             counts = [cells_series]
         else:
-            top = params.cell_charge_voltage_v + CELL_VOLTAGE_MARGIN['above']
-            bottom = params.cell_cutoff_voltage_v - CELL_VOLTAGE_MARGIN['below']
+            bottom, top = _cell_range(params)
             counts = list(range(max(1, math.ceil(high / top)), min(MAX_CELLS, int(low / bottom)) + 1))
         if not counts:
             continue
