@@ -467,3 +467,19 @@ def test_a_plot_written_over_only_where_battery_fit_wrote_it(robot_log, tmp_path
         'a123_lfp_cell'
     assert fit_cli.parse_arguments([log, '-o', str(tmp_path / 'x.yaml'), '--chemistry', 'Li-ion']).chemistry == \
         'lg_hg2_cell'
+
+
+def test_a_pulse_the_voltage_answers_is_no_glitch():
+    """An HPPC test logged every 10 s: a 6C pulse is one sample among hours at rest (0.3 % of them, far above
+    the 99th percentile of |current|), and the voltage drops with it by its resistance: kept. The same current
+    with the voltage still is a sensor's glitch: left out."""
+    t = np.arange(0.0, 36000.0, 10.0)
+    pulse = (np.arange(len(t)) % 360) == 180
+    i = np.where(pulse, -18.0, 0.0)
+    rng = np.random.default_rng(1)
+    answered = 3.7 + 0.025 * i + rng.normal(0.0, 0.001, len(t))
+    kept = prepare(_log(t, answered, i))
+    assert len(kept.time_s) == len(t) and not any('glitch' in note for note in kept.notes), kept.notes
+    still = prepare(_log(t, 3.7 + rng.normal(0.0, 0.001, len(t)), np.where(pulse, -18.0, 0.0) + np.where(
+        np.arange(len(t)) % 20 < 10, -1.0, 0.0)))
+    assert len(still.time_s) == len(t) - pulse.sum() and any('glitch' in note for note in still.notes), still.notes

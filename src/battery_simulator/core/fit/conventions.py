@@ -30,6 +30,8 @@ NOT_A_MEASUREMENT = 1e9
 GLITCH_CURRENT_FACTOR = 10.0
 GLITCH_VOLTAGE_RANGE = (0.5, 2.0)
 GLITCH_SHARE = 0.01
+#: ... and whose voltage moves by less than this many times the log's median step between samples
+GLITCH_VOLTAGE_ANSWER = 5.0
 #: the time going back by more than this many sampling periods (and MIN_SPAN_S), a few times at most, is a
 #: clock that restarted, not stamps out of order
 RESTART_PERIODS, RESTARTS_AT_MOST = 100.0, 3
@@ -294,7 +296,13 @@ def glitches(name, v, i):
     GLITCH_VOLTAGE_RANGE); FitError when more than GLITCH_SHARE of them are so far out."""
     typical_a = max(float(np.percentile(np.abs(i), 99)), MIN_CURRENT_SPREAD_A)
     median_v = float(np.median(v))
-    current_glitch = np.abs(i) > GLITCH_CURRENT_FACTOR * typical_a
+    # a current the voltage does not answer: a real pulse (an HPPC test's 10 s at 6C, one sample at 0.1 Hz among
+    # hours of rest) moves it by its resistance, a glitch by the sensor's noise
+    dv = np.abs(np.diff(v))
+    answer_v = np.maximum(np.concatenate([dv, [0.0]]), np.concatenate([[0.0], dv]))
+    answer_v = np.maximum(answer_v, np.concatenate([answer_v[1:], [0.0]]))   # the next sample's too
+    quiet_v = GLITCH_VOLTAGE_ANSWER * max(float(np.median(dv)) if len(dv) else 0.0, 1e-4 * median_v)
+    current_glitch = (np.abs(i) > GLITCH_CURRENT_FACTOR * typical_a) & (answer_v < quiet_v)
     voltage_glitch = (v < GLITCH_VOLTAGE_RANGE[0] * median_v) | (v > GLITCH_VOLTAGE_RANGE[1] * median_v)
     glitch = current_glitch | voltage_glitch
     if glitch.sum() > GLITCH_SHARE * len(v):
