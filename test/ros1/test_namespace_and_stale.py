@@ -17,16 +17,18 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import UInt64
 
+from battery_simulator.core.battery_parameters import BatteryParameters
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simGoal
 from battery_simulator.srv import SetState
 from rostest_helpers import Recorder, SetStateProxy, node_command, stop_process, wait_for
 
 ROBOT2 = 'robot2/battery_state_pub: Battery'
 ACK_DELAY_S = 0.5   # below the server's 1 s bound on the wait
+TIME_SCALE = 1000   # the servers started here (robot2, robot4)
 NAN = math.nan
 
 
-def start_server(namespace, time_scale=1000):
+def start_server(namespace, time_scale=TIME_SCALE):
     """The action server as a child process in ``namespace`` (ended by pid)."""
     env = dict(os.environ, ROS_NAMESPACE=namespace)
     return subprocess.Popen(node_command('battery_sim_server.py') + ['__name:=BatterySimServer',
@@ -125,14 +127,22 @@ class TestNamespaceAndStale(unittest.TestCase):
         started, called_at = time.monotonic(), rospy.get_time()
         self.assertTrue(set_state(30.0, NAN, NAN).success)
         self.assertGreaterEqual(time.monotonic() - started, ACK_DELAY_S, 'the reply waits for the ack')
-        # at time x1000 the 100 ms since the last update would drain 0.4 %: the change comes after it. The update
-        # that carries it steps on from the change to its own stamp (a busy machine wakes the worker ms late, 4 %
-        # a second here): no more drain than that, and nothing of the level before the change
-        drained_at_most = 0.04 * max(0.0, urgent[-1].battery.header.stamp.to_sec() - called_at) + 0.001
-        self.assertTrue(0.30 - drained_at_most <= urgent[-1].battery.percentage <= 0.30 + 0.001,
-                        '%.4f after setting 0.30 (%.4f of drain at most)' % (urgent[-1].battery.percentage,
+        # urgent also holds the updates of before the call (the latest state sent on connecting, the first
+        # dynamic_reconfigure callback's): the one that carries the change is stamped after the call
+        carried = [u for u in urgent if u.battery.header.stamp.to_sec() >= called_at]
+        self.assertTrue(carried, 'no publish_now update stamped after the call: %s' % [
+            (u.update, u.battery.percentage) for u in urgent])
+        # the update that carries the change steps on from the change to its own stamp (a busy machine wakes the
+        # worker late: 0.2 s in a CI run beside two CPU hogs): no more drain than that, and nothing of the level
+        # before the change (the 100 ms since the last update: 1.5 points). The rate is the default pack's at
+        # x1000: 1.5 A of 2.78 Ah, 15 % a wall second (measured 14.97)
+        params = BatteryParameters()
+        drain_per_s = TIME_SCALE * params.load_current_a / (3600.0 * params.design_capacity_ah)
+        drained_at_most = drain_per_s * max(0.0, carried[-1].battery.header.stamp.to_sec() - called_at) + 0.001
+        self.assertTrue(0.30 - drained_at_most <= carried[-1].battery.percentage <= 0.30 + 0.001,
+                        '%.4f after setting 0.30 (%.4f of drain at most)' % (carried[-1].battery.percentage,
                                                                          drained_at_most))
-        self.assertGreater(urgent[-1].update, 0)
+        self.assertGreater(carried[-1].update, 0)
 
 
 if __name__ == '__main__':
