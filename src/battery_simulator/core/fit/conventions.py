@@ -304,8 +304,7 @@ def glitches(name, v, i):
     quiet_v = GLITCH_VOLTAGE_ANSWER * max(float(np.median(dv)) if len(dv) else 0.0, 1e-4 * median_v)
     current_glitch = (np.abs(i) > GLITCH_CURRENT_FACTOR * typical_a) & (answer_v < quiet_v)
     voltage_glitch = (v < GLITCH_VOLTAGE_RANGE[0] * median_v) | (v > GLITCH_VOLTAGE_RANGE[1] * median_v)
-    glitch = current_glitch | voltage_glitch
-    if glitch.sum() > GLITCH_SHARE * len(v):
+    if voltage_glitch.sum() > GLITCH_SHARE * len(v):   # (a current's are at most 1 %: above its 99th percentile)
         raise FitError('%s: %d of %d samples have a voltage outside %g-%g times the median (%.4g V): two batteries, '
                        'or two units, in one log? give one battery\'s log in volts' % (
                            name, voltage_glitch.sum(), len(v), GLITCH_VOLTAGE_RANGE[0], GLITCH_VOLTAGE_RANGE[1],
@@ -347,11 +346,11 @@ def _usable_percentage(t, pct, notes):
     finite = np.flatnonzero(np.isfinite(pct))
     jumps = np.abs(np.diff(pct[finite])) * (np.diff(t[finite]) < GAP_S)
     if jumps.size and jumps.max() > PERCENTAGE_JUMP:
-        k = finite[int(np.argmax(jumps))]
+        largest = int(np.argmax(jumps))
+        before, after = finite[largest], finite[largest + 1]
         notes.append('WARNING: the percentage jumps from %.4g to %.4g (as logged) between two samples %.3g s apart: '
                      'two scales (0-1 and 0-100) or two batteries in one column? not used' % (
-                         scale * pct[k], scale * pct[finite[int(np.argmax(jumps)) + 1]],
-                         t[finite[int(np.argmax(jumps)) + 1]] - t[k]))
+                         scale * pct[before], scale * pct[after], t[after] - t[before]))
         return None
     notes.append('percentage: %s' % ('0-100, read as 0-1' if scale == 100.0 else '0-1 (as BatteryState)'))
     return pct
