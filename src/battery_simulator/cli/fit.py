@@ -154,10 +154,15 @@ def plot_problem(path, output, logs):
     except ImportError:
         return 'needs matplotlib (python3-matplotlib)'
     formats = FigureCanvasBase.get_supported_filetypes()
-    extension = os.path.splitext(path)[1][1:].lower()
+    extension = _extension(path)
     if extension and extension not in formats:
         return '%s: matplotlib writes no .%s (png, or one of %s)' % (path, extension, ', '.join(sorted(formats)))
     return None
+
+
+def _extension(path):
+    """The file name's extension, lower case, without the dot ('' for none)."""
+    return os.path.splitext(path)[1][1:].lower()
 
 
 def _plot_battery_fit_wrote(path):
@@ -299,7 +304,7 @@ def plot(path, result, numbers):
     bottom.axhline(0.0, color='black', lw=0.5)
     figure.tight_layout()
     try:
-        key = PLOT_METADATA_KEY.get(os.path.splitext(path)[1][1:].lower() or 'png')
+        key = PLOT_METADATA_KEY.get(_extension(path) or 'png')   # (matplotlib's default format)
         figure.savefig(path, dpi=90, metadata={key: PLOT_MARK} if key else None)
     except OSError as error:
         raise FitError('cannot write the plot %s: %s' % (path, error.strerror)) from None

@@ -278,8 +278,8 @@ class FleetHost:
         self._store.write_if_due()
 
     def _tick(self):
-        """Update every battery; publish what is due; then write the state file (written between, its 65-156 ms on a
-        busy machine made a status's level that much older than its stamp: 0.7 points at x300)."""
+        """Update every battery; publish what is due; then write the state file (written before publishing, its
+        65-156 ms on a busy machine made a status's level that much older than its stamp: 0.7 points at x300)."""
         for robot in self.robots:
             robot.update()
         now = time.monotonic()

@@ -106,8 +106,8 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
         notes.append('WARNING: %d samples far outside the others left out (a sensor\'s glitch?): %s'
                      % (glitch.sum(), '; '.join(what)))
         t, v, i, temp, pct = t[~glitch], v[~glitch], i[~glitch], temp[~glitch], pct[~glitch]
-    _refuse_a_restarted_clock(name, t)
     if (np.diff(t) < 0).any():
+        _refuse_a_restarted_clock(name, t)
         notes.append('%d stamps out of order: sorted' % (np.diff(t) < 0).sum())
         order = np.argsort(t, kind='stable')
         t, v, i, temp, pct = t[order], v[order], i[order], temp[order], pct[order]
@@ -154,10 +154,11 @@ def prepare(raw, cmd_vel_timeout_s=0.5):
     else:
         notes.append('current timing: the voltage answers the previous sample\'s current: each sample\'s current '
                      'flowed until the next sample (battery_replay\'s default)')
-    if np.isfinite(temp).sum() >= MIN_SAMPLES and float(np.nanmedian(temp)) > KELVIN_ABOVE_C:
-        raise FitError('%s: the temperature looks like kelvin (median %.6g): the column must be in degrees Celsius'
-                       % (name, float(np.nanmedian(temp))))
     if np.isfinite(temp).sum() >= MIN_SAMPLES:
+        median_c = float(np.nanmedian(temp))
+        if median_c > KELVIN_ABOVE_C:
+            raise FitError('%s: the temperature looks like kelvin (median %.6g): the column must be in degrees '
+                           'Celsius' % (name, median_c))
         log.temperature_c = _filled(temp)
     else:
         notes.append('no temperature (NaN or absent): the preset\'s thermal values kept')
@@ -313,7 +314,7 @@ def glitches(name, v, i):
 
 
 def _refuse_a_restarted_clock(name, t):
-    """FitError where the time goes back far (RESTART_PERIODS) a few times (RESTARTS_AT_MOST) and runs on: a clock
+    """(Stamps out of order:) FitError where the time goes back far (RESTART_PERIODS) a few times (RESTARTS_AT_MOST) and runs on: a clock
     that restarted (a reboot), whose samples sorted by time would be interleaved, half of them taken for duplicates."""
     steps = np.diff(t)
     back = np.flatnonzero(steps < 0)

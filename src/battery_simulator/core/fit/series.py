@@ -62,13 +62,13 @@ def _cell_range(params):
 
 def _refuse_a_count_no_cell_allows(cells_series, low, high, candidates):
     """FitError where the fitted part's voltage (``low``-``high``) at ``cells_series`` cells is no candidate's."""
-    if any(_cell_range(params)[0] <= low / cells_series and high / cells_series <= _cell_range(params)[1]
-           for _, params in candidates):
+    ranges = [(name, _cell_range(params)) for name, params in candidates]
+    if any(bottom <= low / cells_series and high / cells_series <= top for _, (bottom, top) in ranges):
         return
     raise FitError('at %d cells in series the logs\' voltage is %.3g-%.3g V per cell, no cell\'s (%s): check '
                    '--cells-series (or leave it out: the count is found from the voltage)' % (
                        cells_series, low / cells_series, high / cells_series,
-                       '; '.join('%s %.2f-%.2f V' % ((name,) + _cell_range(params)) for name, params in candidates)))
+                       '; '.join('%s %.2f-%.2f V' % ((name,) + cell_range) for name, cell_range in ranges)))
 
 
 def series_count(logs, masks, candidates, known, cells_series, why, progress, warnings):
