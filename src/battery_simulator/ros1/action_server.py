@@ -52,7 +52,7 @@ from battery_simulator.core.server_log import SHUTDOWN_TEXT, ServerLog
 from battery_simulator.msg import BatterySimState, battery_simAction, battery_simFeedback, battery_simResult
 from battery_simulator.ros1.cached_param import CachedParam
 from battery_simulator.ros1.log import RobotLog
-from battery_simulator.ros1.messages import SimState
+from battery_simulator.ros1.messages import STATE_QUEUE_SIZE, SimState
 from battery_simulator.ros1.services import BatteryServices
 from battery_simulator.ros1.startup import clock_publishers
 from battery_simulator.ros1.velocity import twist_of_any
@@ -105,8 +105,9 @@ class BatterySimServer:
 
         self._latest_state = None
         # a subscriber gets the latest state when it connects (as a latched topic, without building
-        # and serializing a message at every update while nobody listens)
-        self._state_pub = rospy.Publisher(namespace + ros_names.STATE_TOPIC, BatterySimState, queue_size=1,
+        # and serializing a message at every update while nobody listens); every update reaches it
+        self._state_pub = rospy.Publisher(namespace + ros_names.STATE_TOPIC, BatterySimState,
+                                          queue_size=STATE_QUEUE_SIZE,
                                           subscriber_listener=_LatestStateOnConnect(self))
         self._server = actionlib.SimpleActionServer(namespace + ros_names.ACTION, battery_simAction, auto_start=False)
         self._server.register_goal_callback(self._wake_up)

@@ -5,6 +5,12 @@ from sensor_msgs.msg import BatteryState
 from battery_simulator.core.battery_record import BatteryRecord, fill_fields as fill
 from battery_simulator.msg import BatterySimState
 
+#: Updates queued for each battery_simulator/state subscriber, on both ends (1 s at 100 Hz): none is dropped. A
+#: queue of 1 dropped an update whose writer thread was not scheduled before the next (10 ms at 100 Hz; 4 of 20
+#: runs on a busy machine), and with it a service's publish_now: battery_state_pub never acknowledged it and the
+#: service replied after its full wait (SERVICE_PUBLISH_WAIT_S), its change not sent at once.
+STATE_QUEUE_SIZE = 100
+
 
 def battery_state_of(record, stamp=None, frame_id=''):
     """The BatteryState of a BatteryRecord, in pack units (V, A, Ah, degC)."""

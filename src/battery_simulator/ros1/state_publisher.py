@@ -41,7 +41,7 @@ from battery_simulator.core.status_codes import DIAGNOSTIC_SUFFIX
 from battery_simulator.core.status_rules import StatusRules
 from battery_simulator.msg import BatterySimState
 from battery_simulator.ros1.log import RobotLog
-from battery_simulator.ros1.messages import ReceivedState
+from battery_simulator.ros1.messages import STATE_QUEUE_SIZE, ReceivedState
 
 
 class BatteryStatePublisher:
@@ -81,7 +81,7 @@ class BatteryStatePublisher:
         """Take the server's state from its topic (a server in another process) and acknowledge on a topic."""
         self._sent_pub = rospy.Publisher(self._namespace + ros_names.STATUS_SENT, UInt64, queue_size=10)
         self._sub = rospy.Subscriber(self._namespace + ros_names.STATE_TOPIC, BatterySimState,
-                                     lambda msg: self.on_state(ReceivedState(msg)), queue_size=10)
+                                     lambda msg: self.on_state(ReceivedState(msg)), queue_size=STATE_QUEUE_SIZE)
 
     def _acknowledge_on_topic(self, update):
         self._sent_pub.publish(UInt64(data=update))
