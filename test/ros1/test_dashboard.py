@@ -8,7 +8,10 @@ Host, a port in use stopping a second dashboard, and a second fleet host on the 
 import http.client
 import json
 import math
+import os
+import shutil
 import subprocess
+import tempfile
 import threading
 import time
 import unittest
@@ -119,7 +122,11 @@ class TestDashboard(unittest.TestCase):
         for argument in ('--headless=new', '--no-sandbox', '--disable-gpu', '--window-size=1280,900'):
             options.add_argument(argument)
         options.set_capability('goog:loggingPrefs', {'browser': 'ALL'})
-        self.driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver'))
+        # Chromium's own temporary directories in one of ours, removed after (it leaves one in TMPDIR at every quit)
+        self.temporary = tempfile.mkdtemp(prefix='test_dashboard_')
+        self.addCleanup(shutil.rmtree, self.temporary, True)
+        self.driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver',
+                                                                        env=dict(os.environ, TMPDIR=self.temporary)))
         self.driver.get(self.url + '/')
         self.wait(30.0, lambda d: len(self.cards()) >= len(ROBOTS), 'a card per robot')
 

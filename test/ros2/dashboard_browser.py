@@ -6,7 +6,10 @@ on /usr/bin/python3: the ROS 2 venv has no selenium): prints one JSON object
     /usr/bin/python3 test/ros2/dashboard_browser.py URL COUNT TIMEOUT_S
 waits (bounded) until COUNT batteries show a level, then reads them."""
 import json
+import os
+import shutil
 import sys
+import tempfile
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -27,7 +30,10 @@ def main():
     for argument in ('--headless=new', '--no-sandbox', '--disable-gpu', '--window-size=1280,900'):
         options.add_argument(argument)
     options.set_capability('goog:loggingPrefs', {'browser': 'ALL'})
-    driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver'))
+    # Chromium's own temporary directories in one of ours, removed after (it leaves one in TMPDIR at every quit)
+    temporary = tempfile.mkdtemp(prefix='dashboard_browser_')
+    driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver',
+                                                               env=dict(os.environ, TMPDIR=temporary)))
     try:
         driver.get(url)
 
@@ -41,6 +47,7 @@ def main():
                           'fields': {c[0]: c[2] for c in cards}, 'errors': errors}))
     finally:
         driver.quit()
+        shutil.rmtree(temporary, ignore_errors=True)
 
 
 if __name__ == '__main__':

@@ -2,8 +2,10 @@
 key: a ROS user's install may lack it) says so where the charts would be. The ROS-free app on a real
 socket, read by headless Debian Chromium; no ROS."""
 import asyncio
+import os
 import shutil
 import socket
+import tempfile
 import threading
 import time
 
@@ -53,11 +55,21 @@ def dashboard(tmp_path, monkeypatch):
     thread.join(5.0)
 
 
-def test_a_battery_page_without_the_chart_library_says_so(dashboard):
+@pytest.fixture
+def chromium_temporary():
+    """A directory for Chromium's own temporary directories (it leaves one in TMPDIR at every quit), removed
+    after; short: its socket's path must fit a Unix socket address (pytest's tmp_path does not)."""
+    temporary = tempfile.mkdtemp(prefix='test_dashboard_app_')
+    yield temporary
+    shutil.rmtree(temporary, ignore_errors=True)
+
+
+def test_a_battery_page_without_the_chart_library_says_so(dashboard, chromium_temporary):
     options = webdriver.ChromeOptions()
     for argument in ('--headless=new', '--no-sandbox', '--disable-gpu', '--disable-background-networking'):
         options.add_argument(argument)
-    driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver'))
+    driver = webdriver.Chrome(options=options, service=Service('/usr/bin/chromedriver',
+                                                               env=dict(os.environ, TMPDIR=chromium_temporary)))
     try:
         driver.get(dashboard + '/battery?topic=%2Frobot3%2Fbattery_status')
         notes = WebDriverWait(driver, 20.0).until(
