@@ -129,6 +129,21 @@ class TestClient(unittest.TestCase):
         self.log.wait_new(logged, lambda m: 'Preempted' in m.msg and 'cancel' in m.msg, 10.0,
                           'the server preempting the cancelled goal')
 
+    def test_ctrl_c_after_the_server_died_ends_the_client_within_2_s(self):
+        """The cancel's wait for an answer is bounded (cli/interrupt.py CANCEL_WAIT_S): a killed server never answers
+        (ROS 2's twin: test/ros2/test_hardening_timing.py; it took 5.7 s with a 5 s wait)."""
+        server = self.start_server('ctrlc')
+        logged = self.log.count()
+        client = self.start_client('ctrlc', '1', '--server-timeout', str(SERVER_START_S))
+        self.wait_goal_running(logged, 'ctrlc')
+        os.killpg(server.pid, signal.SIGKILL)
+        server.wait(10.0)
+        interrupted_at = time.monotonic()
+        client.send_signal(signal.SIGINT)
+        out, err = client.communicate(timeout=30.0)
+        self.assertEqual(client.returncode, 130, out + err)
+        self.assertLess(time.monotonic() - interrupted_at, 2.0, 'Ctrl-C took more than 2 s:\n' + out + err)
+
     def test_a_server_that_dies_mid_goal_ends_the_client_with_1(self):
         server = self.start_server('lost')
         logged = self.log.count()

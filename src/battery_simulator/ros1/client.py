@@ -23,7 +23,7 @@ from sensor_msgs.msg import BatteryState
 from battery_simulator.core import ros_names
 from battery_simulator.msg import battery_simAction, battery_simGoal
 from battery_simulator.cli.progress import ProgressPrinter
-from battery_simulator.cli.interrupt import WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
+from battery_simulator.cli.interrupt import CANCEL_WAIT_S, WAIT_STEP_S, Cancelled, StopRequest, wait_in_wall_time
 
 GOAL_STATES = {GoalStatus.SUCCEEDED: 'succeeded', GoalStatus.ABORTED: 'aborted',
                GoalStatus.PREEMPTED: 'preempted', GoalStatus.REJECTED: 'rejected',
@@ -132,13 +132,13 @@ def run(args, stop=None):
     except Cancelled:
         if client is not None:
             client.cancel_goal()
-            wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(5.0)), 5.0)
+            wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(CANCEL_WAIT_S)), CANCEL_WAIT_S)
         _exit(130, '\ncancelled', sys.stdout)
     if sys.stdout.isatty():
         print()
     if outcome == 'timeout':
         client.cancel_goal()
-        wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(5.0)), 5.0)
+        wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(CANCEL_WAIT_S)), CANCEL_WAIT_S)
         _exit(4, 'timed out after %g s; goal cancelled' % args.timeout, sys.stdout)
     if outcome == 'lost':
         _exit(1, 'battery_sim_client: lost the action server %s while the goal was running'

@@ -14,15 +14,16 @@ import time
 
 from battery_simulator.core import ros_names
 from battery_simulator.cli.client_cli import goal_request
+from battery_simulator.cli.interrupt import CANCEL_WAIT_S
 
 STEP_S = 0.1
+#: the end: rcl's teardown (milliseconds for this one node) bounded by this, then os._exit, as every node of the
+#: package ends. The interpreter's own teardown after it took 0.25-0.45 s beside CPU hogs and other tests, and
+#: with it a Ctrl-C still passed 2 s in a CI run beside two hogs (the cancel's wait already 0.5 s)
+END_S = 0.5
 #: no feedback (the server sends one at every update, 1-10 Hz) for this long, or the server gone from the graph:
 #: the server is lost (a SIGKILL leaves its entities in the graph until DDS's lease ends, 20 s)
 LOST_SERVER_S = 3.0
-#: a cancel (Ctrl-C, timeout) waits this long at most for the server's answer (a live one answers within
-#: milliseconds; a killed one never does, and the wait is the larger part of a Ctrl-C's 2 s: at 1 s, a CI run's
-#: four tests on two cores took the rest)
-CANCEL_WAIT_S = 0.5
 
 
 class _Stop(Exception):
@@ -45,6 +46,7 @@ def main(argv=None):
     from battery_simulator.cli.progress import ProgressPrinter
     from battery_simulator.ros2.qos import STATUS_QOS
     from battery_simulator.ros2.rcl_args import init_rclpy
+    from battery_simulator.ros2.startup import end_process
 
     init_rclpy('battery_sim_client', ['battery_sim_client'] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node('battery_sim_client')
@@ -112,8 +114,7 @@ def main(argv=None):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         node.destroy_node()
-        rclpy.try_shutdown()
-        sys.exit(code)
+        end_process(code, time.monotonic() + END_S)
 
 
 def _cancel(node, goal_handle):

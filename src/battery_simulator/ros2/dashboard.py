@@ -313,33 +313,35 @@ def main(args=None):
             loop = serve(node, hub)
         except StartupError as error:
             exit_on_startup_error(error, node.get_logger() if node is not None else None)
+        stopping = threading.Event()
         levels_executor = SingleThreadedExecutor()
         levels_executor.add_node(node.levels)
         node.levels_executor = levels_executor
-        levels_spinner = threading.Thread(target=_spin, args=(levels_executor,), name='dashboard_levels',
-                                          daemon=True)
+        levels_spinner = threading.Thread(target=_spin, args=(levels_executor, stopping), name='levels', daemon=True)
         levels_spinner.start()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         executor.create_task(node.start, hub)   # the first scan and the timer on the executor's thread
-        spinner = threading.Thread(target=_spin, args=(executor,), name='dashboard_ros', daemon=True)
+        spinner = threading.Thread(target=_spin, args=(executor, stopping), name='dashboard_ros', daemon=True)
         spinner.start()
         node.get_logger().info(ready_line(node.settings))
         try:
             loop.start()
         except KeyboardInterrupt:   # SIGINT or SIGTERM (ending_quietly's handler)
             pass
-        # the executors stopped, then the process ends by end_process (rcl's teardown bounded, os._exit): nodes
-        # destroyed here while a spinner, late on a busy machine, still waited in rcl ended it with SIGSEGV
+        # the spinners stop between waits, then end_process tears rcl down; executor.shutdown() destroyed the guard
+        # condition at once, under a spinner a busy machine left in rcl's wait: SIGSEGV (CI beside two CPU hogs)
         stopped_at = time.monotonic()
-        executor.shutdown(timeout_sec=0.5)
-        levels_executor.shutdown(timeout_sec=0.5)
-        end_process(0, stopped_at + STOP_S)
+        stopping.set()
+        executor.wake()
+        levels_executor.wake()
+        end_process(0, stopped_at + STOP_S, threads_in_rcl=(spinner, levels_spinner))
 
 
-def _spin(executor):
+def _spin(executor, stopping):
     try:
-        executor.spin()
+        while not stopping.is_set():
+            executor.spin_once()
     except Exception:   # noqa: B902 (the context shut down under it: the main thread ends the process)
         pass
 

@@ -272,13 +272,14 @@ def at_end(action):
     _AT_END.append(action)
 
 
-def end_process(code, by):
+def end_process(code, by, threads_in_rcl=()):
     """End the process, its work done (goals ended, state saved): the rcl context shut down in a thread (every
     node, publisher and service destroyed, so that the graph of other processes drops them at once; about 16 ms a
     robot of a fleet, each endpoint's removal announced by DDS), the logs flushed, and ``os._exit(code)`` once
     that is done or at ``by`` (monotonic), whichever comes first: a fleet larger than that allows leaves the rest
     to its peers' lease (about 20 s). Left to the interpreter, the teardown took 5.5 s at 100 robots (15 s on a
-    busy machine)."""
+    busy machine). ``threads_in_rcl``: threads told to stop that may still wait in rcl; the context is shut
+    down only once they have ended (joined until ``by``; shut down under a wait, it crashes the process)."""
     import logging
     done = threading.Event()
 
@@ -286,8 +287,11 @@ def end_process(code, by):
         with contextlib.suppress(Exception):
             rclpy.try_shutdown()
         done.set()
-    threading.Thread(target=_shut_down, name='shutdown', daemon=True).start()
-    done.wait(max(0.0, by - time.monotonic()))
+    for thread in threads_in_rcl:
+        thread.join(max(0.0, by - time.monotonic()))
+    if not any(thread.is_alive() for thread in threads_in_rcl):
+        threading.Thread(target=_shut_down, name='shutdown', daemon=True).start()
+        done.wait(max(0.0, by - time.monotonic()))
     with contextlib.suppress(Exception):
         logging.shutdown()
     for action in _AT_END:
