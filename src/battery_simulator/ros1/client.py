@@ -102,6 +102,12 @@ def _exit(code, text, stream=sys.stderr):
     sys.exit(code)
 
 
+def _cancel(client):
+    """Cancel the goal and wait (bounded: CANCEL_WAIT_S, wall time) for the server's answer."""
+    client.cancel_goal()
+    wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(CANCEL_WAIT_S)), CANCEL_WAIT_S)
+
+
 def run(args, stop=None):
     """Send the goal of ``args`` (a cli/client_cli.py GoalRequest: charge, timeout, server_timeout) and wait
     for its end. ``stop``: the StopRequest that noted signals while starting (a Ctrl-C then sends nothing)."""
@@ -131,14 +137,12 @@ def run(args, stop=None):
         outcome = watch.wait(args.timeout, stop)
     except Cancelled:
         if client is not None:
-            client.cancel_goal()
-            wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(CANCEL_WAIT_S)), CANCEL_WAIT_S)
+            _cancel(client)
         _exit(130, '\ncancelled', sys.stdout)
     if sys.stdout.isatty():
         print()
     if outcome == 'timeout':
-        client.cancel_goal()
-        wait_in_wall_time(lambda: client.wait_for_result(rospy.Duration(CANCEL_WAIT_S)), CANCEL_WAIT_S)
+        _cancel(client)
         _exit(4, 'timed out after %g s; goal cancelled' % args.timeout, sys.stdout)
     if outcome == 'lost':
         _exit(1, 'battery_sim_client: lost the action server %s while the goal was running'
